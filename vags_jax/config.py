@@ -1,0 +1,449 @@
+"""Frozen configuration dataclasses for every part of vags_jax.
+
+Conventions shared by all modules (read these before writing code against them):
+
+* World frame: z up, the table top is the plane ``z = Workspace.table_z`` (default 0).
+  The workspace is the square of side ``Workspace.size`` centred at ``Workspace.center``.
+* Heightmaps are ``(H, W) = (heightmap_px, heightmap_px)`` arrays; row index follows +y,
+  column index follows +x (as in VPG).  Cell ``(row, col)`` covers
+  ``x in [xmin + col * px, xmin + (col + 1) * px)`` and the same for ``y`` with ``row``.
+  Heights are metres above the table, 0 where no point falls.
+* Grasp rotations: index ``r in 0..n_rotations-1`` means angle ``theta = r * pi / 8``
+  (for 16 rotations).  The gripper's *closing axis* (the line the fingers move along) points
+  along ``(cos theta, sin theta)`` in the world xy-plane, i.e. along (col, row) in the
+  heightmap.  ``r`` and ``r + 8`` are the same physical grasp.
+* Cameras use the OpenCV convention: x right, y down, z forward (optical axis).  A pose is a
+  ``(4, 4)`` camera-to-world transform.  Depth images hold the z-distance along the optical
+  axis in metres (as RGB-D sensors report), 0 where nothing was hit or the pixel is missing.
+
+Every config validates itself in ``__post_init__`` and raises ``ValueError`` naming the field
+and what to change.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from typing import Optional
+
+
+def _check(cond: bool, msg: str) -> None:
+    if not cond:
+        raise ValueError(msg)
+
+
+# ----------------------------------------------------------------------------- world
+
+
+@dataclass(frozen=True)
+class Workspace:
+    """The square table region the robot works in and its heightmap grid."""
+
+    center: tuple[float, float] = (0.0, 0.0)
+    size: float = 0.448  # metres, side of the square
+    heightmap_px: int = 224  # cells per side -> 2 mm/px at the defaults
+    table_z: float = 0.0  # height of the table top in the world frame
+    object_height_threshold: float = 0.01  # m; a cell "contains an object" above this
+
+    def __post_init__(self):
+        _check(self.size > 0, f"Workspace.size must be > 0 metres, got {self.size}")
+        _check(
+            isinstance(self.heightmap_px, int) and self.heightmap_px >= 8,
+            f"Workspace.heightmap_px must be an int >= 8, got {self.heightmap_px!r}",
+        )
+
+    @property
+    def pixel_size(self) -> float:
+        return self.size / self.heightmap_px
+
+    @property
+    def bounds(self) -> tuple[float, float, float, float]:
+        """(xmin, xmax, ymin, ymax) in metres."""
+        cx, cy = self.center
+        h = self.size / 2
+        return (cx - h, cx + h, cy - h, cy + h)
+
+
+@dataclass(frozen=True)
+class Scene:
+    """Objects on the table.  ``max_objects`` is N, the number of object slots per world."""
+
+    max_objects: int = 10
+    # Names from vags_jax.scene.SHAPES; the pool holds `copies_per_shape` bodies of each,
+    # and each reset draws its objects from that pool (random shapes per reset).
+    shapes: tuple[str, ...] = (
+        "cuboid_long", "cuboid_flat", "cube", "cuboid_tall", "cube_half", "arch",
+        "disc", "cylinder", "prism", "half_cylinder",
+    )
+    copies_per_shape: int = 2
+    drop_height: float = 0.15  # m above the table
+    drop_margin: float = 0.1  # m kept clear of the workspace edge when dropping
+    settle_time: float = 1.0  # s of simulation after dropping
+    friction: float = 1.0  # sliding friction of objects and table
+    object_density: float = 500.0  # kg/m^3
+
+    def __post_init__(self):
+        _check(
+            isinstance(self.max_objects, int) and self.max_objects >= 1,
+            f"Scene.max_objects must be an int >= 1, got {self.max_objects!r}",
+        )
+        _check(len(self.shapes) >= 1, "Scene.shapes must name at least one shape")
+        _check(
+            self.copies_per_shape >= 1,
+            f"Scene.copies_per_shape must be >= 1, got {self.copies_per_shape}",
+        )
+        _check(
+            len(self.shapes) * self.copies_per_shape >= self.max_objects,
+            f"Scene: the object pool has len(shapes) * copies_per_shape = "
+            f"{len(self.shapes) * self.copies_per_shape} bodies but max_objects = "
+            f"{self.max_objects}; raise copies_per_shape or lower max_objects",
+        )
+        _check(self.settle_time >= 0, "Scene.settle_time must be >= 0 seconds")
+
+    @property
+    def pool_size(self) -> int:
+        return len(self.shapes) * self.copies_per_shape
+
+
+@dataclass(frozen=True)
+class Sim:
+    """Physics settings.  ``impl`` is MJX's backend: "jax" (any device) or "warp" (GPU)."""
+
+    impl: str = "jax"
+    timestep: float = 0.002
+    iterations: int = 20
+    ls_iterations: int = 10
+    impratio: float = 10.0
+    # Contact / constraint buffers.  None -> sized from the scene (see sim.py).
+    naconmax: Optional[int] = None  # warp: contacts across all worlds
+    njmax: Optional[int] = None  # warp: constraint rows per world
+
+    def __post_init__(self):
+        _check(
+            self.impl in ("jax", "warp"),
+            f"Sim.impl must be 'jax' or 'warp', got {self.impl!r}",
+        )
+        _check(0 < self.timestep <= 0.01, f"Sim.timestep must be in (0, 0.01] s, got {self.timestep}")
+        _check(self.iterations >= 1, "Sim.iterations must be >= 1")
+
+
+@dataclass(frozen=True)
+class Grasp:
+    """Top-down parallel-jaw grasp primitive (floating RG2-like gripper)."""
+
+    n_rotations: int = 16
+    approach_height: float = 0.15  # m above the grasp point
+    depth_below_surface: float = 0.03  # m below the surface height at the pixel
+    min_height_above_table: float = 0.005  # grasp centre never below this
+    lift_height: float = 0.15  # m lifted after closing
+    finger_stroke: float = 0.085  # m, full opening between the pads
+    grip_force: float = 40.0  # N, actuator force limit
+    # Phase durations, seconds.
+    t_settle: float = 0.1
+    t_descend: float = 0.4
+    t_close: float = 0.3
+    t_lift: float = 0.5
+    # Success: object lifted this far above the table, fingers not fully closed.
+    success_lift: float = 0.05
+    closed_gap: float = 0.005  # pad gap below this counts as "fully closed"
+
+    def __post_init__(self):
+        _check(
+            self.n_rotations >= 1 and isinstance(self.n_rotations, int),
+            f"Grasp.n_rotations must be a positive int, got {self.n_rotations!r}",
+        )
+        _check(self.finger_stroke > 0, "Grasp.finger_stroke must be > 0")
+        for name in ("t_settle", "t_descend", "t_close", "t_lift"):
+            _check(getattr(self, name) > 0, f"Grasp.{name} must be > 0 seconds")
+
+    @property
+    def rotation_step(self) -> float:
+        return math.pi / (self.n_rotations / 2) if self.n_rotations > 1 else 0.0
+
+
+@dataclass(frozen=True)
+class DepthNoise:
+    """Optional RGB-D sensor noise for robustness experiments (off by default)."""
+
+    enabled: bool = False
+    sigma_base: float = 0.001  # m, std of depth noise at 1 m ...
+    sigma_quadratic: float = 0.0019  # ... grows as sigma_base + sigma_quadratic * (z - 0.4)^2
+    grazing_dropout_deg: float = 75.0  # pixels seen at more than this incidence go missing
+    dropout_prob: float = 0.0  # extra random missing pixels
+
+
+@dataclass(frozen=True)
+class Camera:
+    """Pinhole eye-in-hand RGB-D camera."""
+
+    width: int = 640
+    height: int = 480
+    fx: float = 618.62
+    fy: float = 618.62
+    cx: Optional[float] = None  # None -> width / 2 (pixel u samples the ray through (u - cx) / fx)
+    cy: Optional[float] = None
+    near: float = 0.05
+    far: float = 2.0
+    # Preset global pose: position, and the point it looks at.
+    global_position: tuple[float, float, float] = (0.0, -0.25, 0.60)
+    global_target: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    viewpoint_height: float = 0.25  # m above the surface height at the chosen pixel
+    noise: DepthNoise = field(default_factory=DepthNoise)
+
+    def __post_init__(self):
+        _check(
+            self.width >= 8 and self.height >= 8,
+            f"Camera image must be at least 8 x 8 pixels, got {self.width} x {self.height}",
+        )
+        _check(self.fx > 0 and self.fy > 0, "Camera.fx and Camera.fy must be > 0")
+        _check(0 < self.near < self.far, "Camera needs 0 < near < far")
+
+    @property
+    def principal_point(self) -> tuple[float, float]:
+        cx = self.width / 2 if self.cx is None else self.cx
+        cy = self.height / 2 if self.cy is None else self.cy
+        return cx, cy
+
+
+# ----------------------------------------------------------------------------- learning
+
+
+@dataclass(frozen=True)
+class Net:
+    """Q-network architecture."""
+
+    trunk: str = "densenet121"  # "densenet121" | "small" (fast)
+    head_channels: int = 64
+    small_width: int = 32  # base width of the "small" trunk
+    dtype: str = "float32"  # compute dtype: "float32" | "bfloat16"
+    n_rotations: int = 16
+
+    def __post_init__(self):
+        _check(
+            self.trunk in ("densenet121", "small"),
+            f"Net.trunk must be 'densenet121' or 'small', got {self.trunk!r}",
+        )
+        _check(self.dtype in ("float32", "bfloat16"), f"Net.dtype must be float32 or bfloat16, got {self.dtype!r}")
+
+
+@dataclass(frozen=True)
+class DQN:
+    gamma: float = 0.5
+    huber_delta: float = 1.0
+    optimizer: str = "sgd"  # "sgd" (paper) | "adam"
+    learning_rate: float = 1e-4
+    momentum: float = 0.9
+    weight_decay: float = 2e-5
+    batch_size: int = 8
+    target_update_period: int = 100  # gradient steps between target-network copies
+    double_q: bool = False
+    symmetric_grasp_label: bool = False  # VPG trick: same label also at rotation (r + R/2) % R
+
+    def __post_init__(self):
+        _check(0.0 <= self.gamma < 1.0, f"DQN.gamma must be in [0, 1), got {self.gamma}")
+        _check(self.learning_rate > 0, f"DQN.learning_rate must be > 0, got {self.learning_rate}")
+        _check(self.optimizer in ("sgd", "adam"), f"DQN.optimizer must be 'sgd' or 'adam', got {self.optimizer!r}")
+        _check(self.batch_size >= 1, f"DQN.batch_size must be >= 1, got {self.batch_size}")
+        _check(self.target_update_period >= 1, "DQN.target_update_period must be >= 1")
+
+
+@dataclass(frozen=True)
+class Replay:
+    capacity: int = 10_000
+    alpha: float = 0.6
+    beta: float = 0.4
+    priority_eps: float = 1e-3
+
+    def __post_init__(self):
+        _check(self.capacity >= 1, f"Replay.capacity must be >= 1, got {self.capacity}")
+        _check(0.0 <= self.alpha <= 1.0, f"Replay.alpha must be in [0, 1], got {self.alpha}")
+        _check(0.0 <= self.beta <= 1.0, f"Replay.beta must be in [0, 1], got {self.beta}")
+
+
+@dataclass(frozen=True)
+class Exploration:
+    """DAES: epsilon-greedy whose random pixel is drawn among object pixels."""
+
+    daes: bool = True  # False -> random pixel over the whole workspace (ablation)
+    eps_start: float = 0.5
+    eps_end: float = 0.1
+    eps_decay: float = 0.9998  # per grasp attempt (per world), as in VPG
+    height_threshold: float = 0.01  # m; pixels above this contain objects
+
+    def __post_init__(self):
+        _check(0.0 <= self.eps_end <= self.eps_start <= 1.0,
+               f"Exploration needs 0 <= eps_end <= eps_start <= 1, got {self.eps_end}, {self.eps_start}")
+        _check(0.0 < self.eps_decay <= 1.0, f"Exploration.eps_decay must be in (0, 1], got {self.eps_decay}")
+
+
+@dataclass(frozen=True)
+class Stage:
+    """One training stage (paper 3.2)."""
+
+    name: str = "gdnet"
+    n_worlds: int = 4  # parallel robots
+    iterations: int = 100  # env steps (one grasp attempt per world each)
+    min_objects: int = 1
+    max_objects: int = 5
+    max_attempts_extra: int = 5  # round ends after 2 * objects + this many attempts
+    updates_per_iteration: int = 1
+    learning_starts: int = 16  # transitions in replay before updates start
+
+    def __post_init__(self):
+        _check(self.n_worlds >= 1, f"Stage.n_worlds must be >= 1, got {self.n_worlds}")
+        _check(self.iterations >= 1, f"Stage.iterations must be >= 1, got {self.iterations}")
+        _check(1 <= self.min_objects <= self.max_objects,
+               f"Stage needs 1 <= min_objects <= max_objects, got {self.min_objects}..{self.max_objects}")
+
+
+@dataclass(frozen=True)
+class Config:
+    """Everything, for one run."""
+
+    seed: int = 0
+    workspace: Workspace = field(default_factory=Workspace)
+    scene: Scene = field(default_factory=Scene)
+    sim: Sim = field(default_factory=Sim)
+    grasp: Grasp = field(default_factory=Grasp)
+    camera: Camera = field(default_factory=Camera)
+    net: Net = field(default_factory=Net)
+    dqn: DQN = field(default_factory=DQN)
+    replay: Replay = field(default_factory=Replay)
+    exploration: Exploration = field(default_factory=Exploration)
+    stage1: Stage = field(default_factory=Stage)
+
+    def __post_init__(self):
+        _check(
+            self.stage1.max_objects <= self.scene.max_objects,
+            f"stage1.max_objects ({self.stage1.max_objects}) exceeds scene.max_objects "
+            f"({self.scene.max_objects})",
+        )
+        _check(self.net.n_rotations == self.grasp.n_rotations,
+               "net.n_rotations must equal grasp.n_rotations")
+
+
+def replace(cfg, **changes):
+    """dataclasses.replace that also accepts dotted keys, e.g. replace(cfg, **{"dqn.gamma": 0.9})."""
+    nested: dict[str, dict] = {}
+    flat = {}
+    for k, v in changes.items():
+        if "." in k:
+            head, rest = k.split(".", 1)
+            nested.setdefault(head, {})[rest] = v
+        else:
+            flat[k] = v
+    for head, sub in nested.items():
+        if not hasattr(cfg, head):
+            raise ValueError(f"unknown config section {head!r} in {type(cfg).__name__}")
+        flat[head] = replace(getattr(cfg, head), **sub)
+    names = {f.name for f in dataclasses.fields(cfg)}
+    for k in flat:
+        if k not in names:
+            raise ValueError(
+                f"unknown config field {k!r} for {type(cfg).__name__}; valid fields: {sorted(names)}"
+            )
+    return dataclasses.replace(cfg, **flat)
+
+
+# ----------------------------------------------------------------------------- (de)serialisation
+
+
+def to_dict(cfg) -> dict:
+    """Nested plain-dict form (JSON-ready) of a config dataclass."""
+    return dataclasses.asdict(cfg)
+
+
+def from_dict(cls, data: dict):
+    """Rebuild config dataclass ``cls`` from ``to_dict`` output; unknown keys are errors."""
+    if not isinstance(data, dict):
+        raise ValueError(f"expected a mapping for {cls.__name__}, got {type(data).__name__}")
+    names = {f.name: f for f in dataclasses.fields(cls)}
+    unknown = sorted(set(data) - set(names))
+    if unknown:
+        raise ValueError(
+            f"unknown config field(s) {unknown} for {cls.__name__}; valid fields: {sorted(names)}"
+        )
+    kwargs = {}
+    for name, value in data.items():
+        default = getattr(cls(), name) if _has_all_defaults(cls) else None
+        if dataclasses.is_dataclass(default) and isinstance(value, dict):
+            kwargs[name] = from_dict(type(default), value)
+        elif isinstance(value, list):
+            kwargs[name] = tuple(value)
+        else:
+            kwargs[name] = value
+    return cls(**kwargs)
+
+
+def _has_all_defaults(cls) -> bool:
+    return all(
+        f.default is not dataclasses.MISSING or f.default_factory is not dataclasses.MISSING
+        for f in dataclasses.fields(cls)
+    )
+
+
+def parse_overrides(items: list[str]) -> dict:
+    """Parse ``["dqn.gamma=0.9", "net.trunk=small"]`` into ``{"dqn.gamma": 0.9, ...}``.
+
+    Values are read as JSON when possible (numbers, true/false, lists), else as strings.
+    """
+    import json
+
+    out = {}
+    for item in items:
+        if "=" not in item:
+            raise ValueError(f"override {item!r} must look like section.field=value")
+        key, raw = item.split("=", 1)
+        try:
+            value = json.loads(raw)
+        except json.JSONDecodeError:
+            value = raw
+        if isinstance(value, list):
+            value = tuple(value)
+        out[key.strip()] = value
+    return out
+
+
+# ----------------------------------------------------------------------------- presets
+
+
+def tiny() -> Config:
+    """Runs on a laptop CPU in a few minutes: small images, small heightmaps, tiny nets."""
+    return Config(
+        workspace=Workspace(heightmap_px=32),
+        scene=Scene(max_objects=3, shapes=("cube", "cuboid_long", "cuboid_tall"),
+                    copies_per_shape=1, settle_time=0.4),
+        camera=Camera(width=128, height=96, fx=123.7, fy=123.7),
+        net=Net(trunk="small", small_width=8),
+        dqn=DQN(batch_size=8, optimizer="adam", learning_rate=1e-3, target_update_period=20),
+        replay=Replay(capacity=512),
+        exploration=Exploration(eps_decay=0.99),
+        stage1=Stage(n_worlds=4, iterations=40, min_objects=1, max_objects=3, learning_starts=8),
+    )
+
+
+def gpu() -> Config:
+    """One H100/H200: thousands of grasp attempts per second, fast trunk in bf16."""
+    return Config(
+        sim=Sim(impl="warp"),
+        net=Net(trunk="small", small_width=32, dtype="bfloat16"),
+        dqn=DQN(batch_size=64, optimizer="adam", learning_rate=5e-4, target_update_period=50),
+        replay=Replay(capacity=20_000),
+        exploration=Exploration(eps_decay=0.995),
+        stage1=Stage(n_worlds=256, iterations=400, min_objects=1, max_objects=5,
+                     updates_per_iteration=4, learning_starts=512),
+    )
+
+
+def paper() -> Config:
+    """Paper-faithful: DenseNet-121 trunks, SGD 1e-4, one robot's worth of updates."""
+    return Config(sim=Sim(impl="warp"), net=Net(trunk="densenet121", dtype="bfloat16"))
+
+
+PRESETS = {"tiny": tiny, "gpu": gpu, "paper": paper, "default": Config}
+
+
+def preset(name: str) -> Config:
+    if name not in PRESETS:
+        raise ValueError(f"unknown config preset {name!r}; choose one of {sorted(PRESETS)}")
+    return PRESETS[name]()
