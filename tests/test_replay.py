@@ -1,0 +1,132 @@
+"""Prioritized replay: hand-computed expectations (ring buffer, priorities, sampling, IS weights)."""
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from vags_jax import replay
+
+
+def _scalar_buffer(capacity):
+    return replay.init(capacity, {"x": jnp.zeros((), jnp.float32), "v": jnp.zeros((2,), jnp.int32)})
+
+
+def _items(values):
+    values = jnp.asarray(values, jnp.float32)
+    return {"x": values, "v": jnp.stack([values, -values], -1).astype(jnp.int32)}
+
+
+def test_init_shapes_and_dtypes():
+    h = w = 8
+    example = replay.make_grasp_transition(
+        jnp.zeros((h, w, 3)), jnp.zeros((h, w)), jnp.zeros((3,)), 0.0,
+        jnp.zeros((h, w, 3)), jnp.zeros((h, w)), False)
+    st = replay.init(5, example)
+    assert st.capacity == 5
+    assert st.data.color.shape == (5, h, w, 3) and st.data.color.dtype == jnp.uint8
+    assert st.data.height.shape == (5, h, w) and st.data.height.dtype == jnp.float16
+    assert st.data.action.shape == (5, 3) and st.data.action.dtype == jnp.int32
+    assert st.data.reward.shape == (5,) and st.data.done.dtype == jnp.bool_
+    assert int(st.size) == 0 and int(st.insert_pos) == 0 and float(st.max_priority) == 1.0
+    # 2 * 192 (uint8 colour) + 2 * 128 (f16 height) + 12 + 4 + 1 = 657 B per item, + 4 B priority
+    assert replay.nbytes(st) == 5 * (657 + 4) + 4 + 4 + 4
+
+
+def test_ring_buffer_wraparound():
+    st = _scalar_buffer(5)
+    add = jax.jit(replay.add)
+    st = add(st, _items([0, 1, 2]))
+    assert int(st.size) == 3 and int(st.insert_pos) == 3
+    st = add(st, _items([3, 4, 5]))  # slots 3, 4, then wraps to 0
+    assert int(st.size) == 5 and int(st.insert_pos) == 1
+    np.testing.assert_array_equal(st.data["x"], [5, 1, 2, 3, 4])
+    np.testing.assert_array_equal(st.data["v"][:, 1], [-5, -1, -2, -3, -4])
+    st = add(st, _items([6, 7, 8]))
+    assert int(st.size) == 5 and int(st.insert_pos) == 4
+    np.testing.assert_array_equal(st.data["x"], [5, 6, 7, 8, 4])
+
+
+def test_add_more_than_capacity_raises():
+    with pytest.raises(ValueError, match="capacity"):
+        replay.add(_scalar_buffer(2), _items([0, 1, 2]))
+
+
+def test_priority_update_and_new_items_get_max_priority():
+    st = replay.add(_scalar_buffer(6), _items([0, 1, 2]))
+    np.testing.assert_allclose(st.priorities, [1, 1, 1, 0, 0, 0])
+    st = replay.update_priorities(st, jnp.array([0, 2]), jnp.array([-2.0, 0.5]), 0.01)
+    np.testing.assert_allclose(st.priorities, [2.01, 1, 0.51, 0, 0, 0], rtol=1e-6)
+    np.testing.assert_allclose(st.max_priority, 2.01, rtol=1e-6)
+    st = replay.add(st, _items([3, 4]))
+    np.testing.assert_allclose(st.priorities, [2.01, 1, 0.51, 2.01, 2.01, 0], rtol=1e-6)
+    # A smaller update does not lower max_priority.
+    st = replay.update_priorities(st, jnp.array([3]), jnp.array([0.0]), 0.01)
+    np.testing.assert_allclose(st.max_priority, 2.01, rtol=1e-6)
+    np.testing.assert_allclose(st.priorities[3], 0.01, rtol=1e-6)
+
+
+@pytest.mark.parametrize("alpha", [1.0, 0.5])
+def test_sampling_frequencies_and_importance_weights(alpha):
+    # Capacity 8, 4 valid items with priorities 1, 2, 3, 4; slots 4..7 never written.
+    st = replay.add(_scalar_buffer(8), _items([10, 11, 12, 13]))
+    st = replay.update_priorities(st, jnp.arange(4), jnp.array([1.0, 2.0, 3.0, 4.0]), 0.0)
+    n = 20_000
+    beta = 0.5
+    sample = jax.jit(replay.sample, static_argnums=2)
+    idx, batch, w = sample(st, jax.random.key(0), n, alpha, beta)
+    idx = np.asarray(idx)
+    assert idx.min() >= 0 and idx.max() <= 3  # never an unwritten slot
+    np.testing.assert_array_equal(np.asarray(batch["x"]), 10 + idx)
+
+    p = np.array([1.0, 2.0, 3.0, 4.0]) ** alpha
+    probs = p / p.sum()  # alpha=1: .1 .2 .3 .4
+    counts = np.bincount(idx, minlength=4)
+    chi2 = ((counts - n * probs) ** 2 / (n * probs)).sum()
+    assert chi2 < 21.1, (counts, n * probs)  # 3 dof, p = 1e-4
+
+    # IS weights: (N P(i))^-beta / max; all four items occur, so the max belongs to item 0
+    # and w_i = (P_i / P_0)^-beta = (i + 1)^(-alpha * beta).
+    expected = np.array([1.0, 2.0, 3.0, 4.0]) ** (-alpha * beta)
+    if alpha == 1.0:
+        np.testing.assert_allclose(expected, [1.0, 1 / np.sqrt(2), 1 / np.sqrt(3), 0.5])
+    w = np.asarray(w)
+    for i in range(4):
+        np.testing.assert_allclose(w[idx == i], expected[i], rtol=1e-5)
+
+
+def test_importance_weights_hand_computed_small_batch():
+    # Priorities 1, 3 with alpha = 1 -> P = 1/4, 3/4, N = 2: raw w = (1/2)^-1 = 2 and (3/2)^-1 = 2/3.
+    st = replay.add(_scalar_buffer(4), _items([0, 1]))
+    st = replay.update_priorities(st, jnp.arange(2), jnp.array([1.0, 3.0]), 0.0)
+    idx, _, w = replay.sample(st, jax.random.key(3), 64, 1.0, 1.0)
+    idx, w = np.asarray(idx), np.asarray(w)
+    assert set(idx.tolist()) == {0, 1}
+    np.testing.assert_allclose(w[idx == 0], 1.0, rtol=1e-6)
+    np.testing.assert_allclose(w[idx == 1], 1.0 / 3.0, rtol=1e-6)
+    # beta = 0: uniform weights.
+    _, _, w0 = replay.sample(st, jax.random.key(3), 64, 1.0, 0.0)
+    np.testing.assert_allclose(w0, 1.0)
+
+
+def test_alpha_zero_is_uniform_over_valid_slots():
+    st = replay.add(_scalar_buffer(8), _items([0, 1, 2]))
+    st = replay.update_priorities(st, jnp.arange(3), jnp.array([1.0, 100.0, 5.0]), 0.0)
+    idx, _, w = replay.sample(st, jax.random.key(1), 3000, 0.0, 0.4)
+    counts = np.bincount(np.asarray(idx), minlength=8)
+    assert counts[3:].sum() == 0
+    np.testing.assert_allclose(counts[:3] / 3000, 1 / 3, atol=0.04)
+    np.testing.assert_allclose(w, 1.0, rtol=1e-6)
+
+
+def test_heightmap_compression_roundtrip():
+    h = jnp.linspace(0.0, 0.5, 1001, dtype=jnp.float32).reshape(7, 143)
+    c = replay.compress_heightmap(h)
+    assert c.dtype == jnp.float16
+    back = replay.decompress(c)
+    assert back.dtype == jnp.float32 and back.shape == h.shape
+    assert float(jnp.max(jnp.abs(back - h))) < 1.3e-4  # half a float16 ulp at [0.25, 0.5)
+    bf = replay.decompress(replay.compress_heightmap(h, jnp.bfloat16))
+    assert float(jnp.max(jnp.abs(bf - h))) < 1.0e-3
+    col = replay.compress_color(jnp.array([[-3.0, 12.4, 254.6, 300.0]]))
+    np.testing.assert_array_equal(col, [[0, 12, 255, 255]])
+    assert col.dtype == jnp.uint8
