@@ -1,0 +1,110 @@
+"""Camera geometry: intrinsics, poses, projection, heightmap cell <-> world maps."""
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from vags_jax import camera
+from vags_jax.config import Camera, Workspace
+
+CAM = Camera()
+WS = Workspace()
+
+
+def _assert_rigid(pose):
+    pose = np.asarray(pose, np.float64)
+    rot = pose[..., :3, :3]
+    np.testing.assert_allclose(np.swapaxes(rot, -1, -2) @ rot, np.broadcast_to(np.eye(3), rot.shape), atol=1e-5)
+    np.testing.assert_allclose(np.linalg.det(rot), 1.0, atol=1e-5)
+    np.testing.assert_allclose(pose[..., 3, :], np.broadcast_to([0, 0, 0, 1], pose.shape[:-2] + (4,)))
+
+
+def test_intrinsics():
+    k = np.asarray(camera.intrinsics(CAM))
+    np.testing.assert_allclose(k, [[618.62, 0, 320], [0, 618.62, 240], [0, 0, 1]], rtol=1e-6)
+    k2 = np.asarray(camera.intrinsics(Camera(cx=300.5, cy=250.0)))
+    assert k2[0, 2] == 300.5 and k2[1, 2] == 250.0
+
+
+def test_look_at_points_optical_axis_at_target():
+    pos, tgt = np.array([0.3, -0.2, 0.5]), np.array([0.05, 0.1, 0.0])
+    pose = camera.look_at(pos, tgt)
+    _assert_rigid(pose)
+    np.testing.assert_allclose(pose[:3, 3], pos, atol=1e-6)
+    uv, z = camera.project(tgt[None], pose, CAM)
+    np.testing.assert_allclose(uv[0], CAM.principal_point, atol=1e-3)
+    assert z[0] > 0
+    # Image "up" (-camera y) has a positive world-z component: the world is not upside down.
+    assert -pose[2, 1] > 0
+    # Batched.
+    poses = camera.look_at(np.stack([pos, pos + 0.1]), tgt)
+    assert poses.shape == (2, 4, 4)
+
+
+def test_global_pose_sees_whole_workspace():
+    """Default 640 x 480, fx = fy = 618.62: the workspace corners (on the table and 10 cm above)
+    project inside the image."""
+    pose = camera.global_pose(CAM)
+    _assert_rigid(pose)
+    xmin, xmax, ymin, ymax = WS.bounds
+    for z, margin in ((WS.table_z, 5.0), (WS.table_z + 0.10, 0.0)):
+        corners = np.array([[x, y, z] for x in (xmin, xmax) for y in (ymin, ymax)])
+        uv, depth = camera.project(corners, pose, CAM)
+        uv = np.asarray(uv)
+        assert np.all(np.asarray(depth) > CAM.near)
+        assert np.all(uv[:, 0] >= margin) and np.all(uv[:, 0] <= CAM.width - 1 - margin), uv
+        assert np.all(uv[:, 1] >= margin) and np.all(uv[:, 1] <= CAM.height - 1 - margin), uv
+
+
+def test_project_backproject_roundtrip():
+    pose = camera.global_pose(CAM)
+    depth = np.full((CAM.height, CAM.width), 0.7, np.float32)
+    pts = camera.backproject(depth, CAM, pose)  # (h, w, 3)
+    assert pts.shape == (CAM.height, CAM.width, 3)
+    sel = np.asarray(pts)[::97, ::131].reshape(-1, 3)
+    uv, z = camera.project(sel, pose, CAM)
+    v, u = np.meshgrid(np.arange(0, CAM.height, 97), np.arange(0, CAM.width, 131), indexing="ij")
+    np.testing.assert_allclose(np.asarray(uv), np.stack([u.ravel(), v.ravel()], -1), atol=2e-3)
+    np.testing.assert_allclose(np.asarray(z), 0.7, atol=1e-5)
+    # Pixel (u, v) samples the ray ((u - cx) / fx, (v - cy) / fy, 1).
+    rays = np.asarray(camera.pixel_rays(CAM))
+    np.testing.assert_allclose(rays[10, 20], [(20 - 320) / 618.62, (10 - 240) / 618.62, 1.0], rtol=1e-6)
+    inv = camera.invert_pose(pose)
+    np.testing.assert_allclose(np.asarray(inv @ pose), np.eye(4), atol=1e-6)
+
+
+def test_heightmap_cells_and_world():
+    xmin, xmax, ymin, ymax = WS.bounds
+    px = WS.pixel_size
+    cells = np.array([[0, 0], [0, 223], [223, 0], [100, 37]])
+    xy = np.asarray(camera.pixel_to_world_xy(cells, WS))
+    # row follows +y, col follows +x, cell centres.
+    np.testing.assert_allclose(xy[0], [xmin + px / 2, ymin + px / 2], atol=1e-7)
+    np.testing.assert_allclose(xy[1], [xmax - px / 2, ymin + px / 2], atol=1e-7)
+    np.testing.assert_allclose(xy[2], [xmin + px / 2, ymax - px / 2], atol=1e-7)
+    np.testing.assert_array_equal(np.asarray(camera.world_xy_to_pixel(xy, WS)), cells)
+    out = camera.world_xy_to_pixel(np.array([[xmax + 0.001, 0.0], [0.0, ymin - 0.001]]), WS)
+    assert not np.any(np.asarray(camera.in_workspace(out, WS)))
+
+
+def test_viewpoint_pose_25cm_above_surface_looking_down():
+    hm = np.zeros((2, WS.heightmap_px, WS.heightmap_px), np.float32)
+    hm[0, 50, 120] = 0.07
+    hm[1, 200, 10] = 0.0
+    pix = np.array([[50, 120], [200, 10]])
+    poses = np.asarray(camera.viewpoint_pose(pix, hm, WS, CAM))
+    assert poses.shape == (2, 4, 4)
+    _assert_rigid(poses)
+    xy = np.asarray(camera.pixel_to_world_xy(pix, WS))
+    np.testing.assert_allclose(poses[:, :2, 3], xy, atol=1e-6)
+    np.testing.assert_allclose(poses[:, 2, 3], [WS.table_z + 0.07 + 0.25, WS.table_z + 0.25], atol=1e-6)
+    assert CAM.viewpoint_height == 0.25
+    # Optical axis straight down; fixed orientation: image cols = world +x, image rows = world -y.
+    np.testing.assert_allclose(poses[:, :3, 2], [[0, 0, -1]] * 2, atol=1e-7)
+    np.testing.assert_allclose(poses[:, :3, 0], [[1, 0, 0]] * 2, atol=1e-7)
+    np.testing.assert_allclose(poses[:, :3, 1], [[0, -1, 0]] * 2, atol=1e-7)
+    # A point on the surface under the chosen cell projects to the principal point at depth 0.25.
+    uv, z = camera.project(np.array([[xy[0, 0], xy[0, 1], 0.07]]), poses[0], CAM)
+    np.testing.assert_allclose(np.asarray(uv[0]), CAM.principal_point, atol=1e-3)
+    np.testing.assert_allclose(np.asarray(z), 0.25, atol=1e-6)
+    # Unbatched call.
+    assert camera.viewpoint_pose(pix[0], hm[0], WS, CAM).shape == (4, 4)

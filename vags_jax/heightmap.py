@@ -1,0 +1,125 @@
+"""RGB-D images -> top-down colour and height heightmaps (VPG style, highest point wins).
+
+Each depth pixel is back-projected (pinhole, `vags_jax.camera`), moved to the world frame with
+the camera pose and dropped into the heightmap cell under it (row = +y, col = +x, 2 mm cells
+at the defaults).  Per cell the highest point wins, colour included.  Heights are metres above
+``Workspace.table_z`` clamped at >= 0; cells no point falls in stay 0 with black colour, so
+occlusion shadows stay visible.  Points outside the workspace square or with depth 0 (missing)
+are dropped.
+
+`heightmaps` is the batched, jit-compiled entry point for simulation; `heightmap_from_frame`
+takes one real camera frame (numpy), validates it and returns numpy heightmaps.
+"""
+from __future__ import annotations
+
+import functools
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from vags_jax import camera as cam_lib
+from vags_jax.config import Camera, Workspace
+
+
+def _scatter(depth, rgb, cam_pose, cam_cfg: Camera, ws_cfg: Workspace):
+    """Batched scatter-max; see `heightmaps`."""
+    b = depth.shape[0]
+    n_hm = ws_cfg.heightmap_px
+    cells = n_hm * n_hm
+    pts = cam_lib.backproject(depth, cam_cfg, cam_pose).reshape(b, -1, 3)  # (B, N, 3) world
+    rc = cam_lib.world_xy_to_pixel(pts[..., :2], ws_cfg)  # (B, N, 2) [row, col]
+    valid = (depth.reshape(b, -1) > 0) & cam_lib.in_workspace(rc, ws_cfg)
+    height = jnp.maximum(pts[..., 2] - ws_cfg.table_z, 0.0)
+    # One flat index space for the whole batch; invalid points go to a dump cell at the end.
+    flat = jnp.arange(b)[:, None] * cells + rc[..., 0] * n_hm + rc[..., 1]
+    flat = jnp.where(valid, flat, b * cells).reshape(-1)
+    height = height.reshape(-1)
+    hmax = jnp.zeros(b * cells + 1, jnp.float32).at[flat].max(height)
+    # The colour of the highest point: the largest point index among the cell's maxima.
+    n = height.shape[0]
+    is_top = valid.reshape(-1) & (height >= hmax[flat])
+    winner = jnp.full(b * cells + 1, -1, jnp.int32).at[flat].max(jnp.where(is_top, jnp.arange(n, dtype=jnp.int32), -1))
+    winner = winner[:-1]
+    color = jnp.where((winner >= 0)[:, None], rgb.reshape(-1, 3)[jnp.maximum(winner, 0)], 0)
+    return color.reshape(b, n_hm, n_hm, 3).astype(jnp.uint8), hmax[:-1].reshape(b, n_hm, n_hm)
+
+
+@functools.partial(jax.jit, static_argnames=("cam_cfg", "ws_cfg"))
+def heightmaps(depth, rgb, cam_pose, cam_cfg: Camera, ws_cfg: Workspace):
+    """Colour and height heightmaps of B RGB-D images.
+
+    Args:
+      depth: (B, h, w) float32 z-depth in metres, 0 = missing.
+      rgb: (B, h, w, 3) uint8.
+      cam_pose: (B, 4, 4) camera-to-world poses.
+      cam_cfg: intrinsics (h, w must match the images); ws_cfg: workspace and grid (static).
+    Returns:
+      color_hm (B, H, W, 3) uint8 and height_hm (B, H, W) float32, H = W = ws_cfg.heightmap_px.
+    """
+    depth = jnp.asarray(depth, jnp.float32)
+    if depth.shape[1:] != (cam_cfg.height, cam_cfg.width):
+        raise ValueError(
+            f"depth images have shape {depth.shape[1:]} but the camera config is "
+            f"{cam_cfg.height} x {cam_cfg.width} (height x width)"
+        )
+    return _scatter(depth, jnp.asarray(rgb, jnp.uint8), jnp.asarray(cam_pose, jnp.float32), cam_cfg, ws_cfg)
+
+
+def heightmap_from_frame(depth, rgb, cam_pose, cam_cfg: Camera, ws_cfg: Workspace):
+    """Heightmaps of ONE real RGB-D frame, with input validation (numpy in, numpy out).
+
+    Args:
+      depth: (h, w) float depth in metres (z along the optical axis); 0, NaN and inf are
+        treated as missing.  (h, w) must equal (cam_cfg.height, cam_cfg.width).
+      rgb: (h, w, 3) uint8 colour image registered to the depth image.
+      cam_pose: (4, 4) camera-to-world transform (OpenCV camera frame) in the robot frame.
+    Returns:
+      color_hm (H, W, 3) uint8 and height_hm (H, W) float32.
+    Raises:
+      ValueError with a hint for wrong shapes, dtypes, millimetre depth, negative depth or a
+      pose that is not a rigid transform.
+    """
+    depth = np.asarray(depth)
+    rgb = np.asarray(rgb)
+    cam_pose = np.asarray(cam_pose)
+    want = (cam_cfg.height, cam_cfg.width)
+    if depth.ndim == 3 and depth.shape[-1] == 1:
+        depth = depth[..., 0]
+    if depth.ndim != 2:
+        raise ValueError(f"depth must be a 2-D (height, width) image, got shape {depth.shape}")
+    if depth.shape != want:
+        raise ValueError(
+            f"depth has shape {depth.shape} but the camera config expects {want} "
+            "(height, width); resize the image or pass a Camera config with matching "
+            "width/height/fx/fy/cx/cy"
+        )
+    if not np.issubdtype(depth.dtype, np.floating):
+        raise ValueError(
+            f"depth must be floating point metres, got dtype {depth.dtype}; for a uint16 "
+            "sensor image in millimetres pass depth.astype(np.float32) / 1000"
+        )
+    if rgb.shape != want + (3,):
+        raise ValueError(f"rgb must have shape {want + (3,)} (height, width, 3), got {rgb.shape}")
+    if rgb.dtype != np.uint8:
+        raise ValueError(
+            f"rgb must be uint8 in 0..255, got dtype {rgb.dtype}; for floats in [0, 1] pass "
+            "(rgb * 255).round().astype(np.uint8)"
+        )
+    if cam_pose.shape != (4, 4) or not np.all(np.isfinite(cam_pose)):
+        raise ValueError(f"cam_pose must be a finite (4, 4) camera-to-world transform, got shape {cam_pose.shape}")
+    rot = cam_pose[:3, :3].astype(np.float64)
+    if not np.allclose(rot.T @ rot, np.eye(3), atol=1e-4) or np.linalg.det(rot) < 0 or not np.allclose(
+        cam_pose[3], [0, 0, 0, 1], atol=1e-6
+    ):
+        raise ValueError("cam_pose must be a rigid transform: orthonormal rotation (det +1), last row [0, 0, 0, 1]")
+    depth = np.where(np.isfinite(depth), depth, 0.0).astype(np.float32)
+    if np.any(depth < 0):
+        raise ValueError(f"depth has negative values (min {depth.min():.4g}); missing pixels must be 0 or NaN")
+    if depth.max(initial=0.0) > 10.0:
+        raise ValueError(
+            f"depth values reach {depth.max():.4g}, more than 10 m: the image looks like "
+            "millimetres; divide by 1000 to give metres"
+        )
+    color, height = heightmaps(depth[None], rgb[None], cam_pose[None].astype(np.float32), cam_cfg, ws_cfg)
+    return np.asarray(color[0]), np.asarray(height[0])
