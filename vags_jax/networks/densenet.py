@@ -1,0 +1,125 @@
+"""DenseNet-121 feature extractor, laid out like torchvision's ``densenet121().features``.
+
+Structure (Huang et al. 2017; torchvision ``DenseNet(growth_rate=32, block_config=(6, 12, 24,
+16), num_init_features=64, bn_size=4)``)::
+
+    conv0 7x7/2 pad 3 (no bias) - norm0 - relu - maxpool 3x3/2 pad 1
+    denseblock1 (6 layers)  - transition1 (BN-ReLU-1x1 conv to half the channels - avgpool 2x2/2)
+    denseblock2 (12 layers) - transition2
+    denseblock3 (24 layers) - transition3
+    denseblock4 (16 layers) - norm5
+    dense layer: norm1-relu-conv1 1x1 (4 * 32 ch) - norm2-relu-conv2 3x3 pad 1 (32 ch), concatenated
+
+Input ``(N, H, W, 3)``, output ``(N, ceil-ish(H / 32), ., 1024)`` (exactly ``H / 32`` when H is a
+multiple of 32) after ``norm5`` and no ReLU, like torchvision.  Padding is torchvision's explicit
+symmetric padding, so pretrained weights see the same alignment.  Output cell ``k`` is centred on
+input pixel ``32 k + 14`` (stem: ``4k``; each transition's 2x2 average moves it by half a cell).
+
+Submodule names mirror torchvision's state-dict keys (``conv0``, ``denseblock1/denselayer1/norm1``,
+``transition1/conv``, ``norm5``...) so ``pretrained.py`` can map them one to one.  BatchNorm:
+momentum 0.9 (torch 0.1), epsilon 1e-5; ``train=True`` uses batch statistics and updates the
+``batch_stats`` collection.  Parameters are float32; ``dtype`` is the compute dtype.
+"""
+from __future__ import annotations
+
+from typing import Sequence
+
+import flax.linen as nn
+import jax
+import jax.numpy as jnp
+
+STRIDE = 32
+OFFSET = 14.0  # output cell k is centred on input pixel STRIDE * k + OFFSET
+OUT_CHANNELS = 1024
+BLOCK_CONFIG = (6, 12, 24, 16)
+GROWTH = 32
+BN_SIZE = 4
+INIT_FEATURES = 64
+# torch's kaiming_normal_ (fan_in, ReLU gain): an untruncated normal, std sqrt(2 / fan_in).
+HE_NORMAL = nn.initializers.variance_scaling(2.0, "fan_in", "normal")
+
+
+def batch_norm(name: str, train: bool, dtype) -> nn.BatchNorm:
+    """torch-equivalent BatchNorm2d (momentum 0.1 -> flax 0.9, eps 1e-5), float32 params."""
+    return nn.BatchNorm(
+        use_running_average=not train, momentum=0.9, epsilon=1e-5,
+        dtype=dtype, param_dtype=jnp.float32, name=name,
+    )
+
+
+def conv(features: int, kernel: int, name: str, dtype, stride: int = 1, pad: int = 0) -> nn.Conv:
+    """Bias-free conv with torch-style symmetric padding and He-normal init (torchvision's)."""
+    return nn.Conv(
+        features, (kernel, kernel), strides=(stride, stride), padding=((pad, pad), (pad, pad)),
+        use_bias=False, dtype=dtype, param_dtype=jnp.float32,
+        kernel_init=HE_NORMAL, name=name,
+    )
+
+
+class DenseLayer(nn.Module):
+    """BN-ReLU-1x1 conv-BN-ReLU-3x3 conv: ``(N, H, W, C_in) -> (N, H, W, growth)``."""
+
+    growth: int = GROWTH
+    bn_size: int = BN_SIZE
+    dtype: jnp.dtype = jnp.float32
+
+    @nn.compact
+    def __call__(self, x: jax.Array, train: bool) -> jax.Array:
+        y = nn.relu(batch_norm("norm1", train, self.dtype)(x))
+        y = conv(self.bn_size * self.growth, 1, "conv1", self.dtype)(y)
+        y = nn.relu(batch_norm("norm2", train, self.dtype)(y))
+        return conv(self.growth, 3, "conv2", self.dtype, pad=1)(y)
+
+
+class DenseBlock(nn.Module):
+    """``n_layers`` dense layers: ``(N, H, W, C) -> (N, H, W, C + n_layers * growth)``."""
+
+    n_layers: int
+    growth: int = GROWTH
+    bn_size: int = BN_SIZE
+    dtype: jnp.dtype = jnp.float32
+
+    @nn.compact
+    def __call__(self, x: jax.Array, train: bool) -> jax.Array:
+        for i in range(self.n_layers):
+            y = DenseLayer(self.growth, self.bn_size, self.dtype, name=f"denselayer{i + 1}")(x, train)
+            x = jnp.concatenate([x, y], axis=-1)
+        return x
+
+
+class Transition(nn.Module):
+    """BN-ReLU-1x1 conv-avgpool 2x2/2: ``(N, H, W, C) -> (N, H // 2, W // 2, features)``."""
+
+    features: int
+    dtype: jnp.dtype = jnp.float32
+
+    @nn.compact
+    def __call__(self, x: jax.Array, train: bool) -> jax.Array:
+        y = nn.relu(batch_norm("norm", train, self.dtype)(x))
+        y = conv(self.features, 1, "conv", self.dtype)(y)
+        return nn.avg_pool(y, (2, 2), strides=(2, 2), padding="VALID")
+
+
+class DenseNet121(nn.Module):
+    """DenseNet-121 ``features``: ``(N, H, W, 3) -> (N, H / 32, W / 32, 1024)``."""
+
+    block_config: Sequence[int] = BLOCK_CONFIG
+    growth: int = GROWTH
+    bn_size: int = BN_SIZE
+    init_features: int = INIT_FEATURES
+    dtype: jnp.dtype = jnp.float32
+
+    @nn.compact
+    def __call__(self, x: jax.Array, train: bool = False) -> jax.Array:
+        x = x.astype(self.dtype)
+        x = conv(self.init_features, 7, "conv0", self.dtype, stride=2, pad=3)(x)
+        x = nn.relu(batch_norm("norm0", train, self.dtype)(x))
+        x = nn.max_pool(x, (3, 3), strides=(2, 2), padding=((1, 1), (1, 1)))
+        channels = self.init_features
+        for b, n_layers in enumerate(self.block_config):
+            x = DenseBlock(n_layers, self.growth, self.bn_size, self.dtype, name=f"denseblock{b + 1}")(x, train)
+            channels += n_layers * self.growth
+            if b != len(self.block_config) - 1:
+                channels //= 2
+                x = Transition(channels, self.dtype, name=f"transition{b + 1}")(x, train)
+        return batch_norm("norm5", train, self.dtype)(x)
