@@ -52,18 +52,23 @@ def _manager(run_dir: str, max_to_keep: Optional[int] = 3) -> ocp.CheckpointMana
     return ocp.CheckpointManager(path, options=ocp.CheckpointManagerOptions(max_to_keep=max_to_keep))
 
 
-def _to_saveable(tree: Any) -> Any:
+def _leaf_to_array(x):
     """Typed PRNG keys are stored as their raw uint32 data."""
-    return jax.tree.map(
-        lambda x: jax.random.key_data(x) if jax.dtypes.issubdtype(getattr(x, "dtype", None), jax.dtypes.prng_key) else x,
-        tree,
-    )
+    if jax.dtypes.issubdtype(getattr(x, "dtype", None), jax.dtypes.prng_key):
+        return jax.random.key_data(x)
+    return x
+
+
+def _flatten(tree: Any) -> dict[str, Any]:
+    """{index: leaf} of the non-empty leaves (orbax refuses zero-size arrays, which mjx.Data has)."""
+    leaves = [_leaf_to_array(x) for x in jax.tree.leaves(tree)]
+    return {f"{i:05d}": x for i, x in enumerate(leaves) if np.size(x) > 0}
 
 
 def save(run_dir: str, step: int, state: Any) -> None:
     """Writes ``state`` (a pytree of arrays) as checkpoint ``step`` and waits until it is on disk."""
     mngr = _manager(run_dir)
-    mngr.save(int(step), args=ocp.args.StandardSave(_to_saveable(state)), force=True)
+    mngr.save(int(step), args=ocp.args.StandardSave(_flatten(state)), force=True)
     mngr.wait_until_finished()
     mngr.close()
 
@@ -93,10 +98,9 @@ def restore(run_dir: str, target: Any, step: Optional[int] = None) -> tuple[Any,
             f"no checkpoint {'found' if step is None else step} in {run_dir}/{CHECKPOINT_DIR}"
             f" (available steps: {available or 'none'})"
         )
-    saveable = _to_saveable(target)
-    abstract = jax.tree.map(ocp.utils.to_shape_dtype_struct, saveable)
+    abstract = jax.tree.map(ocp.utils.to_shape_dtype_struct, _flatten(target))
     try:
-        restored = mngr.restore(step, args=ocp.args.StandardRestore(abstract))
+        flat = mngr.restore(step, args=ocp.args.StandardRestore(abstract))
     except (ValueError, KeyError, TypeError) as e:
         mngr.close()
         raise CheckpointError(
@@ -105,15 +109,18 @@ def restore(run_dir: str, target: Any, step: Optional[int] = None) -> tuple[Any,
             f"Resume with the run's own config.json. Orbax said: {str(e)[:300]}"
         ) from e
     mngr.close()
-    # Put typed keys back where the target had them.
-    restored = jax.tree.map(
-        lambda t, r: jax.random.wrap_key_data(r) if jax.dtypes.issubdtype(getattr(t, "dtype", None), jax.dtypes.prng_key) else r,
-        target, restored,
-    )
-    return restored, step
+    leaves, treedef = jax.tree.flatten(target)
+    out = []
+    for i, t in enumerate(leaves):
+        r = flat.get(f"{i:05d}", t)
+        if jax.dtypes.issubdtype(getattr(t, "dtype", None), jax.dtypes.prng_key):
+            r = jax.random.wrap_key_data(r)
+        out.append(r)
+    return jax.tree.unflatten(treedef, out), step
 
 
 def tree_equal(a: Any, b: Any) -> bool:
     """Exact equality of two pytrees of arrays (for resume tests)."""
-    la, lb = jax.tree.leaves(_to_saveable(a)), jax.tree.leaves(_to_saveable(b))
+    la = [_leaf_to_array(x) for x in jax.tree.leaves(a)]
+    lb = [_leaf_to_array(x) for x in jax.tree.leaves(b)]
     return len(la) == len(lb) and all(np.array_equal(np.asarray(x), np.asarray(y)) for x, y in zip(la, lb))

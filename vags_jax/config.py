@@ -189,6 +189,7 @@ class Camera:
     global_target: tuple[float, float, float] = (0.0, 0.0, 0.0)
     viewpoint_height: float = 0.25  # m above the surface height at the chosen pixel
     noise: DepthNoise = field(default_factory=DepthNoise)
+    renderer: str = "jax"  # "jax": pure-JAX ray caster (any device) | "warp": MJX Warp renderer (GPU)
 
     def __post_init__(self):
         _check(
@@ -197,6 +198,7 @@ class Camera:
         )
         _check(self.fx > 0 and self.fy > 0, "Camera.fx and Camera.fy must be > 0")
         _check(0 < self.near < self.far, "Camera needs 0 < near < far")
+        _check(self.renderer in ("jax", "warp"), f"Camera.renderer must be 'jax' or 'warp', got {self.renderer!r}")
 
     @property
     def principal_point(self) -> tuple[float, float]:

@@ -135,8 +135,14 @@ def huber_loss_at_action(q: jax.Array, action: jax.Array, y: jax.Array, weights:
 # ----------------------------------------------------------------------------- update step
 
 
-def make_update_step(apply_fn: Callable, cfg: DQN) -> Callable:
+def make_update_step(apply_fn: Callable, cfg: DQN, executed_rotation_only: bool = False) -> Callable:
     """Build ``update(train_state, batch, weights) -> (train_state, metrics, td_errors (b,))``.
+
+    ``executed_rotation_only`` (GDNet): the online network is evaluated only at each sample's
+    executed rotation (and its mirror with ``cfg.symmetric_grasp_label``) through
+    ``apply_fn(..., rotations=(b, K))``; the loss and gradients are the same as with the full
+    (b, R, H, W) evaluation, at 1/R (or 2/R) of its cost.  The target still takes the max over
+    every rotation of the next state.
 
     ``batch`` is a sampled transition pytree with fields color (b,H,W,3) uint8, height
     (b,H,W) (float16/bfloat16/float32), action (b,3) or (b,2) int32, reward (b,), next_color,
@@ -163,14 +169,27 @@ def make_update_step(apply_fn: Callable, cfg: DQN) -> Callable:
         else:
             y = td_target(batch.reward, batch.done, next_q_t, cfg.gamma)
 
+        sub_rot = executed_rotation_only and batch.action.shape[-1] == 3
+
         def loss_fn(params):
-            q, new_vars = apply_fn({"params": params, "batch_stats": ts.batch_stats},
-                                   color, height, True, mutable=["batch_stats"])
+            online = {"params": params, "batch_stats": ts.batch_stats}
+            if sub_rot:
+                r_all = next_q_t.shape[1]
+                rot = batch.action[:, :1]
+                rots = jnp.concatenate([rot, (rot + r_all // 2) % r_all], 1) if cfg.symmetric_grasp_label else rot
+                q, new_vars = apply_fn(online, color, height, True, mutable=["batch_stats"], rotations=rots)
+                local = batch.action.at[:, 0].set(0)  # q[:, 0] is the executed rotation
+                loss, td = huber_loss_at_action(q, local, y, weights, cfg.huber_delta, False)
+                if cfg.symmetric_grasp_label:
+                    mirror = huber(y - q_at_action(q.astype(jnp.float32), batch.action.at[:, 0].set(1)), cfg.huber_delta)
+                    loss = loss + jnp.mean(weights.astype(jnp.float32) * mirror)
+                return loss, (td, new_vars.get("batch_stats", ts.batch_stats), q, local)
+            q, new_vars = apply_fn(online, color, height, True, mutable=["batch_stats"])
             loss, td = huber_loss_at_action(q, batch.action, y, weights, cfg.huber_delta,
                                             cfg.symmetric_grasp_label)
-            return loss, (td, new_vars.get("batch_stats", ts.batch_stats), q)
+            return loss, (td, new_vars.get("batch_stats", ts.batch_stats), q, batch.action)
 
-        (loss, (td, batch_stats, q)), grads = jax.value_and_grad(loss_fn, has_aux=True)(ts.params)
+        (loss, (td, batch_stats, q, q_action)), grads = jax.value_and_grad(loss_fn, has_aux=True)(ts.params)
         updates, opt_state = tx.update(grads, ts.opt_state, ts.params)
         params = optax.apply_updates(ts.params, updates)
         step = ts.step + 1
@@ -187,7 +206,7 @@ def make_update_step(apply_fn: Callable, cfg: DQN) -> Callable:
         metrics = {
             "loss": loss,
             "td_abs_mean": jnp.mean(jnp.abs(td)),
-            "q_taken_mean": jnp.mean(q_at_action(q.astype(jnp.float32), batch.action)),
+            "q_taken_mean": jnp.mean(q_at_action(q.astype(jnp.float32), q_action)),
             "q_max_mean": jnp.mean(_flat_max(q.astype(jnp.float32))),
             "target_mean": jnp.mean(y),
             "grad_norm": optax.tree.norm(grads),

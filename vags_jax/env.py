@@ -1,0 +1,254 @@
+"""The VAGS environment: batched worlds observed as heightmaps, grasped in heightmap coordinates.
+
+``VagsEnv(cfg)`` builds the scene, the simulator and the renderer once.  Its state is an
+``EnvState`` over B worlds holding the physics state, the latest *global-view* heightmaps and the
+round's bookkeeping.  Public methods validate their inputs and are jit-compiled; the methods
+whose names start with ``step_`` / ``observe`` / ``reset_where`` are pure and jittable, for use
+inside a larger jitted loop (``vags_jax.stages``).
+
+Grasp in heightmap coordinates (``grasp(state, pixel, rotation)``):
+  * ``pixel`` = (row, col) of the global heightmap -> world x, y of the cell centre;
+  * the grasp centre is ``depth_below_surface`` under the surface height at that cell (never
+    below ``table_z + min_height_above_table``, enforced by the simulator);
+  * ``rotation`` r -> closing-axis yaw ``r * pi / (n_rotations / 2)`` (config conventions).
+
+One grasp attempt = the physics of the grasp, then a new global observation (render +
+heightmaps) of every world.  A *round* is one scene: it ends when the table is clear or after
+``2 * objects + max_attempts_extra`` attempts (``round_over``).
+"""
+from __future__ import annotations
+
+from typing import Optional
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from flax import struct
+
+from vags_jax import camera, heightmap, render
+from vags_jax.config import Config
+from vags_jax.scene import build_scene
+from vags_jax.sim import GraspResult, SimState, Simulator, check_overflow
+
+
+@struct.dataclass
+class EnvState:
+    """B worlds.
+
+    sim: physics state (``vags_jax.sim.SimState``).
+    color: (B, H, W, 3) uint8 colour heightmap of the latest global view.
+    height: (B, H, W) float32 height heightmap (m above the table) of that view.
+    attempts: (B,) int32 grasp attempts in the current round.
+    successes: (B,) int32 successful grasps in the current round.
+    motions: (B,) int32 camera / gripper motions in the current round.
+    travel: (B,) float32 commanded gripper travel (m) in the current round.
+    """
+
+    sim: SimState
+    color: jax.Array
+    height: jax.Array
+    attempts: jax.Array
+    successes: jax.Array
+    motions: jax.Array
+    travel: jax.Array
+
+    @property
+    def n_worlds(self) -> int:
+        return self.height.shape[0]
+
+
+class VagsEnv:
+    """Scene + simulator + renderer for one config.  Build once, reuse for any batch size."""
+
+    def __init__(self, cfg: Config):
+        self.cfg = cfg
+        self.scene = build_scene(cfg)
+        self.sim = Simulator(cfg, self.scene)
+        self._geometry: dict[int, object] = {}
+        self.global_pose = np.asarray(camera.global_pose(cfg.camera), np.float32)
+        self._reset_jit = jax.jit(self.step_reset)
+        self._grasp_jit = jax.jit(self.step_grasp)
+        self._grasp_world_jit = jax.jit(self.step_grasp_world)
+        self._observe_jit = jax.jit(self.observe)
+
+    # ------------------------------------------------------------------ helpers
+
+    def prepare(self, n_worlds: int) -> None:
+        """Build what is cached per batch size (render geometry, physics data template) eagerly.
+
+        Call it before tracing a function that uses the ``step_*`` methods for ``n_worlds``
+        worlds (the public methods and ``stages`` do).
+        """
+        self.geometry(n_worlds)
+        with jax.ensure_compile_time_eval():
+            self.sim._template(n_worlds)  # noqa: SLF001
+
+    def geometry(self, n_worlds: int):
+        """Static render geometry (the Warp renderer's context is per batch size)."""
+        key = n_worlds if self.cfg.camera.renderer == "warp" else 0
+        if key not in self._geometry:
+            with jax.ensure_compile_time_eval():  # built eagerly even when first asked inside jit
+                self._geometry[key] = render.prepare_geometry(
+                    self.scene.mj_model, self.scene.render_geom_mask, backend=self.cfg.camera.renderer,
+                    cam_cfg=self.cfg.camera, n_worlds=n_worlds,
+                )
+        return self._geometry[key]
+
+    def max_attempts(self, n_objects: jax.Array) -> jax.Array:
+        """(B,) attempts allowed in a round that started with n_objects (B,)."""
+        return 2 * n_objects + self.cfg.stage1.max_attempts_extra
+
+    @staticmethod
+    def n_remaining(state: EnvState) -> jax.Array:
+        """(B,) int32 objects still on the table."""
+        return state.sim.active.sum(axis=1).astype(jnp.int32)
+
+    def round_over(self, state: EnvState) -> jax.Array:
+        """(B,) bool: table clear, or the round's attempt budget is used up."""
+        return (self.n_remaining(state) == 0) | (state.attempts >= self.max_attempts(state.sim.n_objects))
+
+    # ------------------------------------------------------------------ pure, jittable
+
+    def observe(self, sim_state: SimState, cam_pose: jax.Array, key: Optional[jax.Array] = None):
+        """Render every world from cam_pose (B, 4, 4) -> (color (B,H,W,3) uint8, height (B,H,W)).
+
+        ``key`` is needed only when the config's depth noise is enabled.
+        """
+        cfg = self.cfg
+        d = sim_state.data
+        out = render.render_full(self.geometry(sim_state.n_worlds), d.geom_xpos, d.geom_xmat,
+                                 sim_state.geom_rgb, cam_pose, cfg.camera)
+        depth = out.depth
+        if cfg.camera.noise.enabled:
+            if key is None:
+                raise ValueError("camera.noise.enabled needs a PRNG key in observe()")
+            depth = render.add_depth_noise(key, depth, out.cos_incidence, cfg.camera.noise)
+        return heightmap.heightmaps(depth, out.rgb, cam_pose, cfg.camera, cfg.workspace)
+
+    def observe_global(self, sim_state: SimState, key: Optional[jax.Array] = None):
+        pose = jnp.broadcast_to(jnp.asarray(self.global_pose), (sim_state.n_worlds, 4, 4))
+        return self.observe(sim_state, pose, key)
+
+    def step_reset(self, key: jax.Array, n_objects: jax.Array) -> EnvState:
+        """New rounds in every world: key (2,) raw uint32, n_objects (B,) int32 (unchecked)."""
+        k_sim, k_obs = jax.random.split(key)
+        B = n_objects.shape[0]
+        sim_state = self.sim._reset_impl(jax.random.split(k_sim, B), n_objects)
+        color, height = self.observe_global(sim_state, k_obs)
+        zi = jnp.zeros((B,), jnp.int32)
+        return EnvState(sim=sim_state, color=color, height=height, attempts=zi, successes=zi,
+                        motions=zi, travel=jnp.zeros((B,), jnp.float32))
+
+    def reset_where(self, key: jax.Array, state: EnvState, mask: jax.Array, n_objects: jax.Array) -> EnvState:
+        """Worlds with mask (B,) set start a new round with n_objects (B,); the rest are kept.
+
+        The reset physics is skipped entirely when no world needs it.
+        """
+        def do_reset(s):
+            fresh = self.step_reset(key, n_objects)
+            return jax.tree.map(
+                lambda new, old: jnp.where(mask.reshape((-1,) + (1,) * (new.ndim - 1)), new, old), fresh, s)
+
+        return jax.lax.cond(mask.any(), do_reset, lambda s: s, state)
+
+    def grasp_pose(self, state: EnvState, pixel: jax.Array, rotation: jax.Array):
+        """Heightmap action -> (position (B, 3), yaw (B,)) in the world frame."""
+        cfg = self.cfg
+        xy = camera.pixel_to_world_xy(pixel, cfg.workspace)
+        b = jnp.arange(state.n_worlds)
+        surface = state.height[b, pixel[:, 0], pixel[:, 1]]
+        z = cfg.workspace.table_z + surface - cfg.grasp.depth_below_surface
+        yaw = rotation.astype(jnp.float32) * cfg.grasp.rotation_step
+        return jnp.concatenate([xy, z[:, None]], axis=1), yaw
+
+    def step_grasp_world(self, state: EnvState, position: jax.Array, yaw: jax.Array,
+                         key: Optional[jax.Array] = None, motions: int = 1):
+        """Grasp at world position (B, 3) / yaw (B,), then re-observe the global view."""
+        B = state.n_worlds
+        start = jnp.broadcast_to(jnp.asarray(self.cfg.camera.global_position, jnp.float32), (B, 3))
+        sim_state, result = self.sim._grasp_impl(state.sim, position, yaw, start)
+        color, height = self.observe_global(sim_state, key)
+        state = state.replace(
+            sim=sim_state, color=color, height=height,
+            attempts=state.attempts + 1,
+            successes=state.successes + result.success.astype(jnp.int32),
+            motions=state.motions + motions,
+            travel=state.travel + result.approach + result.descend + result.lift,
+        )
+        return state, result
+
+    def step_grasp(self, state: EnvState, pixel: jax.Array, rotation: jax.Array,
+                   key: Optional[jax.Array] = None):
+        """Grasp at heightmap pixel (B, 2) [row, col] with rotation index (B,) (unchecked)."""
+        position, yaw = self.grasp_pose(state, pixel, rotation)
+        return self.step_grasp_world(state, position, yaw, key)
+
+    # ------------------------------------------------------------------ public, validated
+
+    def reset(self, key, n_objects) -> EnvState:
+        """New scenes: key (2,) uint32 PRNG key, n_objects (B,) ints in 1..max_objects."""
+        n = np.asarray(n_objects)
+        N = self.cfg.scene.max_objects
+        if n.ndim != 1 or n.size == 0 or not np.issubdtype(n.dtype, np.integer) or n.min() < 1 or n.max() > N:
+            raise ValueError(
+                f"n_objects must be a (B,) array of integers in 1..{N} (scene.max_objects = {N}); "
+                f"got {n.tolist()!r}"
+            )
+        key = _raw_key(key)
+        self.prepare(n.shape[0])
+        state = self._reset_jit(key, jnp.asarray(n, jnp.int32))
+        check_overflow(state.sim)
+        return state
+
+    def grasp(self, state: EnvState, pixel, rotation, key=None):
+        """Grasp in every world at heightmap pixel (B, 2) [row, col], rotation index (B,).
+
+        Returns (EnvState, GraspResult).  Raises ValueError for pixels outside the heightmap or
+        rotation indices outside 0..n_rotations-1.
+        """
+        B, H = state.n_worlds, self.cfg.workspace.heightmap_px
+        R = self.cfg.grasp.n_rotations
+        pixel = np.asarray(pixel)
+        rotation = np.asarray(rotation)
+        if pixel.shape != (B, 2) or not np.issubdtype(pixel.dtype, np.integer):
+            raise ValueError(f"pixel must be a (B, 2) = ({B}, 2) integer array of [row, col]; "
+                             f"got shape {pixel.shape} dtype {pixel.dtype}")
+        if pixel.min() < 0 or pixel.max() >= H:
+            bad = pixel[(pixel < 0).any(1) | (pixel >= H).any(1)]
+            raise ValueError(f"pixel [row, col] must lie in 0..{H - 1} (heightmap is {H} x {H}); "
+                             f"got {bad[:4].tolist()}")
+        if rotation.shape != (B,) or not np.issubdtype(rotation.dtype, np.integer):
+            raise ValueError(f"rotation must be a (B,) = ({B},) integer array; got shape "
+                             f"{rotation.shape} dtype {rotation.dtype}")
+        if rotation.min() < 0 or rotation.max() >= R:
+            raise ValueError(f"rotation index must lie in 0..{R - 1} ({R} rotations of "
+                             f"{180 / (R / 2):.1f} deg); got {rotation[(rotation < 0) | (rotation >= R)][:4].tolist()}")
+        key = None if key is None else _raw_key(key)
+        state, result = self._grasp_jit(state, jnp.asarray(pixel, jnp.int32), jnp.asarray(rotation, jnp.int32), key)
+        check_overflow(state.sim)
+        return state, result
+
+    def grasp_at(self, state: EnvState, position, yaw, key=None):
+        """Grasp in every world at world position (B, 3) with closing-axis yaw (B,) radians."""
+        B = state.n_worlds
+        position = jnp.asarray(position, jnp.float32)
+        yaw = jnp.asarray(yaw, jnp.float32)
+        if position.shape != (B, 3) or yaw.shape != (B,):
+            raise ValueError(f"grasp_at expects position ({B}, 3) and yaw ({B},); got "
+                             f"{position.shape} and {yaw.shape}")
+        key = None if key is None else _raw_key(key)
+        state, result = self._grasp_world_jit(state, position, yaw, key)
+        check_overflow(state.sim)
+        return state, result
+
+
+def _raw_key(key) -> jax.Array:
+    key = jnp.asarray(key)
+    if jnp.issubdtype(key.dtype, jax.dtypes.prng_key):
+        key = jax.random.key_data(key)
+    if key.shape != (2,):
+        raise ValueError(f"expected one PRNG key of shape (2,) (jax.random.PRNGKey(seed)); got {key.shape}")
+    return key
+
+
+__all__ = ["EnvState", "VagsEnv", "GraspResult"]
