@@ -130,3 +130,13 @@ def test_heightmap_compression_roundtrip():
     col = replay.compress_color(jnp.array([[-3.0, 12.4, 254.6, 300.0]]))
     np.testing.assert_array_equal(col, [[0, 12, 255, 255]])
     assert col.dtype == jnp.uint8
+
+
+def test_repeated_indices_take_the_largest_priority():
+    state = replay.init(4, jnp.zeros((2,)))
+    state = replay.add(state, jnp.zeros((4, 2)))
+    idx = jnp.array([1, 1, 1, 3])
+    td = jnp.array([0.5, -2.0, 1.0, 0.25])
+    out = replay.update_priorities(state, idx, td, eps=0.0)
+    np.testing.assert_allclose(np.asarray(out.priorities), [1.0, 2.0, 1.0, 0.25])
+    assert float(out.max_priority) == 2.0

@@ -129,27 +129,41 @@ class VagsEnv:
         pose = jnp.broadcast_to(jnp.asarray(self.global_pose), (sim_state.n_worlds, 4, 4))
         return self.observe(sim_state, pose, key)
 
-    def step_reset(self, key: jax.Array, n_objects: jax.Array) -> EnvState:
-        """New rounds in every world: key (2,) raw uint32, n_objects (B,) int32 (unchecked)."""
+    def step_reset(self, key: jax.Array, n_objects: jax.Array, observe: bool = True) -> EnvState:
+        """New rounds in every world: key (2,) raw uint32, n_objects (B,) int32 (unchecked).
+
+        With ``observe=False`` the heightmaps are left at zero (the caller observes later).
+        """
         k_sim, k_obs = jax.random.split(key)
         B = n_objects.shape[0]
         sim_state = self.sim._reset_impl(jax.random.split(k_sim, B), n_objects)
-        color, height = self.observe_global(sim_state, k_obs)
+        H = self.cfg.workspace.heightmap_px
+        if observe:
+            color, height = self.observe_global(sim_state, k_obs)
+        else:
+            color, height = jnp.zeros((B, H, H, 3), jnp.uint8), jnp.zeros((B, H, H), jnp.float32)
         zi = jnp.zeros((B,), jnp.int32)
         return EnvState(sim=sim_state, color=color, height=height, attempts=zi, successes=zi,
                         motions=zi, travel=jnp.zeros((B,), jnp.float32))
 
-    def reset_where(self, key: jax.Array, state: EnvState, mask: jax.Array, n_objects: jax.Array) -> EnvState:
+    def reset_where(self, key: jax.Array, state: EnvState, mask: jax.Array, n_objects: jax.Array,
+                    observe: bool = True) -> EnvState:
         """Worlds with mask (B,) set start a new round with n_objects (B,); the rest are kept.
 
-        The reset physics is skipped entirely when no world needs it.
+        The reset physics is skipped entirely when no world needs it.  With ``observe=False``
+        the reset worlds' heightmaps are stale until the caller observes.
         """
         def do_reset(s):
-            fresh = self.step_reset(key, n_objects)
+            fresh = self.step_reset(key, n_objects, observe)
             return jax.tree.map(
                 lambda new, old: jnp.where(mask.reshape((-1,) + (1,) * (new.ndim - 1)), new, old), fresh, s)
 
         return jax.lax.cond(mask.any(), do_reset, lambda s: s, state)
+
+    def with_observation(self, state: EnvState, key: Optional[jax.Array] = None) -> EnvState:
+        """state with fresh global-view heightmaps of every world."""
+        color, height = self.observe_global(state.sim, key)
+        return state.replace(color=color, height=height)
 
     def grasp_pose(self, state: EnvState, pixel: jax.Array, rotation: jax.Array):
         """Heightmap action -> (position (B, 3), yaw (B,)) in the world frame."""
@@ -162,14 +176,15 @@ class VagsEnv:
         return jnp.concatenate([xy, z[:, None]], axis=1), yaw
 
     def step_grasp_world(self, state: EnvState, position: jax.Array, yaw: jax.Array,
-                         key: Optional[jax.Array] = None, motions: int = 1):
-        """Grasp at world position (B, 3) / yaw (B,), then re-observe the global view."""
+                         key: Optional[jax.Array] = None, motions: int = 1, observe: bool = True):
+        """Grasp at world position (B, 3) / yaw (B,), then (``observe``) re-observe the global view."""
         B = state.n_worlds
         start = jnp.broadcast_to(jnp.asarray(self.cfg.camera.global_position, jnp.float32), (B, 3))
         sim_state, result = self.sim._grasp_impl(state.sim, position, yaw, start)
-        color, height = self.observe_global(sim_state, key)
+        state = state.replace(sim=sim_state)
+        if observe:
+            state = self.with_observation(state, key)
         state = state.replace(
-            sim=sim_state, color=color, height=height,
             attempts=state.attempts + 1,
             successes=state.successes + result.success.astype(jnp.int32),
             motions=state.motions + motions,
@@ -178,10 +193,10 @@ class VagsEnv:
         return state, result
 
     def step_grasp(self, state: EnvState, pixel: jax.Array, rotation: jax.Array,
-                   key: Optional[jax.Array] = None):
+                   key: Optional[jax.Array] = None, observe: bool = True):
         """Grasp at heightmap pixel (B, 2) [row, col] with rotation index (B,) (unchecked)."""
         position, yaw = self.grasp_pose(state, pixel, rotation)
-        return self.step_grasp_world(state, position, yaw, key)
+        return self.step_grasp_world(state, position, yaw, key, observe=observe)
 
     # ------------------------------------------------------------------ public, validated
 

@@ -187,11 +187,13 @@ def sample(state: ReplayState, key: jax.Array, batch_size: int, alpha: float, be
 
 def update_priorities(state: ReplayState, indices: jax.Array, td_errors: jax.Array,
                       eps: float) -> ReplayState:
-    """Set priority ``|td| + eps`` at ``indices`` (b,) from ``td_errors`` (b,).  With repeated
-    indices one of the values wins (unspecified which).  Updates ``max_priority``."""
+    """Set priority ``|td| + eps`` at ``indices`` (b,) from ``td_errors`` (b,).  An index drawn
+    more than once gets the largest of its values: a plain scatter-set with repeated indices
+    lets an unspecified write win, which made runs non-reproducible.  Updates ``max_priority``."""
     new = jnp.abs(td_errors).astype(jnp.float32) + eps
+    cleared = state.priorities.at[indices].set(0.0)  # same value for repeats: deterministic
     return state.replace(
-        priorities=state.priorities.at[indices].set(new),
+        priorities=cleared.at[indices].max(new),
         max_priority=jnp.maximum(state.max_priority, jnp.max(new)),
     )
 

@@ -5,11 +5,11 @@ One *iteration* is, for every world at once:
 
   1. GDNet (eval mode) on the global heightmaps -> Q (B, R, H, W);
   2. DAES picks an action (B, 3) [rotation, row, col] (``vags_jax.exploration``);
-  3. the grasp is simulated and the scene re-observed (``VagsEnv.step_grasp``);
-     reward = 1 on success else 0; a cleared table is terminal (no bootstrap);
-  4. the B transitions go into prioritized replay;
-  5. worlds whose round is over (clear, attempt budget used, or a physics error) start a new
-     round with a random object count;
+  3. the grasp is simulated (``VagsEnv.step_grasp``); reward = 1 on success else 0;
+  4. worlds whose round is over (clear, attempt budget used, or a physics error) start a new
+     round with a random object count; then every world is rendered once;
+  5. the B transitions go into prioritized replay; a finished round is terminal (no bootstrap:
+     a cleared table has no future, and a reset world's next view is another scene);
   6. ``updates_per_iteration`` DQN updates from replay (once it holds ``learning_starts``).
 
 Everything is one ``lax.scan`` over iterations inside one jit: no host round trip per step.
@@ -129,14 +129,17 @@ class Stage1:
         q_exec = dqn.q_at_action(q, action)
 
         noise_key = k_grasp if cfg.camera.noise.enabled else None
-        s2, result = env.step_grasp(s, action[:, 1:], action[:, 0], noise_key)
+        # Physics of the grasp, then of the resets of finished rounds, then ONE render of all
+        # worlds.  A world that was reset stores a terminal transition (its next observation is
+        # the new scene, which must not be bootstrapped from).
+        s2, result = env.step_grasp(s, action[:, 1:], action[:, 0], observe=False)
         reward = result.success.astype(jnp.float32)
         cleared = env.n_remaining(s2) == 0
-        transitions = replay.make_grasp_transition(s.color, s.height, action, reward, s2.color, s2.height, cleared)
-        buffer = replay.add(state.replay, transitions)
-
         over = env.round_over(s2) | s2.sim.error
-        s3 = env.reset_where(k_reset, s2, over, self._n_objects(k_n, s.n_worlds))
+        s3 = env.reset_where(k_reset, s2, over, self._n_objects(k_n, s.n_worlds), observe=False)
+        s3 = env.with_observation(s3, noise_key)
+        transitions = replay.make_grasp_transition(s.color, s.height, action, reward, s3.color, s3.height, over)
+        buffer = replay.add(state.replay, transitions)
         learner, buffer, (loss, td_abs), n_updates = self._learn(state.learner, buffer, k_learn)
 
         metrics = {
