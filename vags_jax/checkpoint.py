@@ -13,6 +13,7 @@ rather than an orbax shape error from deep inside.
 """
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 from typing import Any, Optional
@@ -65,10 +66,35 @@ def _flatten(tree: Any) -> dict[str, Any]:
     return {f"{i:05d}": x for i, x in enumerate(leaves) if np.size(x) > 0}
 
 
+def _unflatten(target: Any, flat: dict[str, Any]) -> Any:
+    leaves, treedef = jax.tree.flatten(target)
+    out = []
+    for i, t in enumerate(leaves):
+        r = flat.get(f"{i:05d}", t)  # empty leaves were not saved: keep the target's
+        if jax.dtypes.issubdtype(getattr(t, "dtype", None), jax.dtypes.prng_key):
+            r = jax.random.wrap_key_data(r)
+        out.append(r)
+    return jax.tree.unflatten(treedef, out)
+
+
+def _parts(state: Any) -> dict[str, Any]:
+    """Top-level named parts of a state dataclass (or dict): saved, and restorable, separately."""
+    if dataclasses.is_dataclass(state):
+        return {f.name: getattr(state, f.name) for f in dataclasses.fields(state)}
+    if isinstance(state, dict):
+        return dict(state)
+    return {"state": state}
+
+
 def save(run_dir: str, step: int, state: Any) -> None:
-    """Writes ``state`` (a pytree of arrays) as checkpoint ``step`` and waits until it is on disk."""
+    """Writes ``state`` (a dataclass / dict of pytrees of arrays) as checkpoint ``step``.
+
+    Each top-level field is stored under its name, so one part (e.g. ``learner``) can be
+    restored without building or reading the others (``restore_part``).
+    """
+    tree = {name: _flatten(part) for name, part in _parts(state).items()}
     mngr = _manager(run_dir)
-    mngr.save(int(step), args=ocp.args.StandardSave(_flatten(state)), force=True)
+    mngr.save(int(step), args=ocp.args.StandardSave(tree), force=True)
     mngr.wait_until_finished()
     mngr.close()
 
@@ -82,13 +108,11 @@ def latest_step(run_dir: str) -> Optional[int]:
     return step
 
 
-def restore(run_dir: str, target: Any, step: Optional[int] = None) -> tuple[Any, int]:
-    """Restores into the structure of ``target``; returns ``(state, step)``.
-
-    Raises CheckpointError with what to fix when there is no checkpoint or it does not fit.
-    """
+def _open_step(run_dir: str, step: Optional[int]):
     if not os.path.isdir(run_dir):
         raise CheckpointError(f"run directory {run_dir!r} does not exist")
+    if not os.path.isdir(os.path.join(run_dir, CHECKPOINT_DIR)):
+        raise CheckpointError(f"no checkpoints in {run_dir!r}: train it first (python train.py --out {run_dir})")
     mngr = _manager(run_dir, max_to_keep=None)
     step = mngr.latest_step() if step is None else int(step)
     if step is None or step not in mngr.all_steps():
@@ -98,25 +122,56 @@ def restore(run_dir: str, target: Any, step: Optional[int] = None) -> tuple[Any,
             f"no checkpoint {'found' if step is None else step} in {run_dir}/{CHECKPOINT_DIR}"
             f" (available steps: {available or 'none'})"
         )
-    abstract = jax.tree.map(ocp.utils.to_shape_dtype_struct, _flatten(target))
+    return mngr, step
+
+
+def _mismatch(run_dir, step, e) -> CheckpointError:
+    return CheckpointError(
+        f"checkpoint {step} in {run_dir} does not fit this run's state: it was written with a "
+        f"different config (network, number of worlds, heightmap size or replay capacity). "
+        f"Use the run's own config.json. Orbax said: {str(e)[:300]}"
+    )
+
+
+def restore(run_dir: str, target: Any, step: Optional[int] = None) -> tuple[Any, int]:
+    """Restores into the structure of ``target``; returns ``(state, step)``.
+
+    Raises CheckpointError with what to fix when there is no checkpoint or it does not fit.
+    """
+    mngr, step = _open_step(run_dir, step)
+    parts = _parts(target)
+    abstract = {name: jax.tree.map(ocp.utils.to_shape_dtype_struct, _flatten(p)) for name, p in parts.items()}
     try:
         flat = mngr.restore(step, args=ocp.args.StandardRestore(abstract))
     except (ValueError, KeyError, TypeError) as e:
+        raise _mismatch(run_dir, step, e) from e
+    finally:
         mngr.close()
-        raise CheckpointError(
-            f"checkpoint {step} in {run_dir} does not fit this run's state: it was written with a "
-            f"different config (network, number of worlds, heightmap size or replay capacity). "
-            f"Resume with the run's own config.json. Orbax said: {str(e)[:300]}"
-        ) from e
-    mngr.close()
-    leaves, treedef = jax.tree.flatten(target)
-    out = []
-    for i, t in enumerate(leaves):
-        r = flat.get(f"{i:05d}", t)
-        if jax.dtypes.issubdtype(getattr(t, "dtype", None), jax.dtypes.prng_key):
-            r = jax.random.wrap_key_data(r)
-        out.append(r)
-    return jax.tree.unflatten(treedef, out), step
+    restored = {name: _unflatten(p, flat[name]) for name, p in parts.items()}
+    if dataclasses.is_dataclass(target):
+        return dataclasses.replace(target, **restored), step
+    return (restored if isinstance(target, dict) else restored["state"]), step
+
+
+def restore_part(run_dir: str, name: str, target: Any, step: Optional[int] = None) -> tuple[Any, int]:
+    """Restores only the top-level part ``name`` (e.g. "learner") into ``target``'s structure."""
+    mngr, step = _open_step(run_dir, step)
+    want = {name: jax.tree.map(ocp.utils.to_shape_dtype_struct, _flatten(target))}
+    try:
+        flat = mngr.restore(step, args=ocp.args.PyTreeRestore(
+            item=want, restore_args=jax.tree.map(lambda _: ocp.RestoreArgs(restore_type=np.ndarray), want),
+            partial_restore=True))
+    except (ValueError, KeyError, TypeError, FileNotFoundError) as e:
+        raise _mismatch(run_dir, step, e) from e
+    finally:
+        mngr.close()
+    got = flat.get(name, {}) if isinstance(flat, dict) else {}
+    for k, v in want[name].items():
+        if k not in got or tuple(np.shape(got[k])) != tuple(v.shape) or np.dtype(got[k].dtype) != v.dtype:
+            found = "missing" if k not in got else f"{np.shape(got[k])} {got[k].dtype}"
+            raise _mismatch(run_dir, step, f"part {name!r} leaf {k}: saved {found}, wanted {v.shape} {v.dtype}")
+    flat = {name: got}
+    return _unflatten(target, {k: jax.numpy.asarray(v) for k, v in flat[name].items()}), step
 
 
 def tree_equal(a: Any, b: Any) -> bool:

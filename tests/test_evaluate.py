@@ -1,0 +1,210 @@
+"""Benchmark protocol (vags_jax.evaluate, eval.py): metrics by hand, bad inputs, one tiny run."""
+import json
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import eval as eval_cli
+from vags_jax import checkpoint, config as C, dqn, evaluate as E, replay
+from vags_jax.env import EnvState
+from vags_jax.networks import init_qnet, make_qnet
+from vags_jax.stages import Stage1State
+
+
+def _outcomes(**kw):
+    base = dict(n_objects=[2, 2, 3], attempts=[2, 5, 4], successes=[2, 1, 3], motions=[2, 5, 4],
+                travel=[1.0, 2.0, 1.5], return_travel=[0.0, 1.2, 0.4], remaining=[0, 0, 0], on_object=[2, 4, 4],
+                error=[False, False, False], overflow=[False, False, False])
+    base.update(kw)
+    return E.RoundOutcomes(**{k: np.asarray(v) for k, v in base.items()})
+
+
+# ----------------------------------------------------------------------------- metrics
+
+
+def test_metrics_hand_computed():
+    m = E.summarize(_outcomes())
+    assert m["rounds"] == 3 and m["objects"] == 7 and m["attempts"] == 11 and m["successes"] == 6
+    assert m["grasp_success_rate"] == pytest.approx(6 / 11)
+    assert m["clearing_rate"] == pytest.approx(2 / 3)  # round 2 got 1 of 2 objects
+    assert m["motion_number"] == pytest.approx(11 / 6)
+    # 11 motions * 0.5 s + (4.5 + 1.6) m / 0.5 m/s + 11 attempts * (0.5 + 0.5) s + 6 * 2 s
+    seconds = 5.5 + 12.2 + 11.0 + 12.0
+    assert m["robot_seconds"] == pytest.approx(seconds)
+    assert m["picks_per_hour"] == pytest.approx(6 * 3600 / seconds)
+    assert m["objects_lost"] == 1  # round 2: 2 objects, 1 grasped, 0 left
+    assert m["attempts_per_round"] == pytest.approx(11 / 3)
+    assert m["on_object_rate"] == pytest.approx(10 / 11)
+    fast = E.summarize(_outcomes(), E.MotionTimeModel(speed=1.0, capture_s=0, close_s=0, lift_s=0, place_s=0))
+    assert fast["picks_per_hour"] == pytest.approx(6 * 3600 / 6.1)
+
+
+def test_metrics_pool_and_edge_cases():
+    a, b = _outcomes(), _outcomes(successes=[0, 0, 0], remaining=[2, 2, 3], return_travel=[1.0, 1.0, 1.0])
+    m = E.summarize(E.RoundOutcomes.concatenate([a, b]))
+    assert m["rounds"] == 6 and m["attempts"] == 22 and m["successes"] == 6
+    assert m["grasp_success_rate"] == pytest.approx(6 / 22) and m["clearing_rate"] == pytest.approx(2 / 6)
+    none = E.summarize(b)
+    assert none["grasp_success_rate"] == 0.0 and none["motion_number"] is None
+    assert none["picks_per_hour"] == 0.0 and none["clearing_rate"] == 0.0
+    empty = E.summarize(_outcomes(attempts=[0, 0, 0], successes=[0, 0, 0], motions=[0, 0, 0],
+                                  travel=[0.0] * 3, return_travel=[0.0] * 3, remaining=[2, 2, 3]))
+    assert empty["grasp_success_rate"] is None and empty["picks_per_hour"] is None
+    with pytest.raises(ValueError, match="speed"):
+        E.MotionTimeModel(speed=0.0)
+
+
+def test_table_and_json_shape():
+    m = E.summarize(_outcomes())
+    report = {"groups_metrics": [{"n_objects": 2, **m}], "overall": m}
+    table = E.format_table(report).splitlines()
+    assert len(table) == 4 and table[0].startswith("| objects") and "**overall**" in table[-1]
+    assert "54.5" in table[2] and "66.7" in table[2] and "1.83" in table[2]
+    json.dumps(_outcomes().to_json())
+
+
+# ----------------------------------------------------------------------------- bad inputs
+
+
+def test_bad_groups_rounds_policy(tiny_cfg):
+    with pytest.raises(ValueError, match=r"outside 1\.\.3.*scene.max_objects = 3.*scene.max_objects=5"):
+        E.check_groups([1, 5], tiny_cfg)
+    with pytest.raises(ValueError, match="outside"):
+        E.check_groups([0], tiny_cfg)
+    with pytest.raises(ValueError, match="integers"):
+        E.check_groups([1.5], tiny_cfg)
+    with pytest.raises(ValueError, match="rounds"):
+        E.check_groups([1], tiny_cfg, rounds=0)
+    with pytest.raises(ValueError, match="unknown policy 'greedy'.*heuristic"):
+        E.make_policy("greedy", tiny_cfg)
+    with pytest.raises(ValueError, match="needs trained GDNet"):
+        E.make_policy("gdnet", tiny_cfg)
+
+
+def test_cli_errors(tmp_path, capsys):
+    def err(argv):
+        assert eval_cli.main(argv) == 2
+        return capsys.readouterr().err
+
+    assert "does not exist" in err(["--run", str(tmp_path / "nope")])
+    assert "unknown policy" in err(["--policy", "vpg"])
+    assert "needs --run" in err(["--policy", "gdnet"])
+    assert "scene.max_objects = 3" in err(["--config", "tiny", "--policy", "random", "--groups", "1-10"])
+    assert "--groups" in err(["--config", "tiny", "--policy", "random", "--groups", "1-x"])
+    run = tmp_path / "run"
+    checkpoint.save_config(str(run), C.tiny())
+    assert "no checkpoints" in err(["--run", str(run)])
+    assert eval_cli.parse_groups("1-3,5,2") == [1, 2, 3, 5]
+
+
+# ----------------------------------------------------------------------------- checkpoint
+
+
+def test_load_gdnet_restores_only_the_learner(tmp_path):
+    cfg = C.replace(C.tiny(), **{"replay.capacity": 8})
+    H = cfg.workspace.heightmap_px
+    learner = dqn.create_train_state(init_qnet(jax.random.PRNGKey(3), make_qnet(cfg.net, "gdnet"), H, H), cfg.dqn)
+    c, h = jnp.zeros((H, H, 3), jnp.uint8), jnp.zeros((H, H), jnp.float32)
+    buffer = replay.init(cfg.replay.capacity, replay.make_grasp_transition(c, h, jnp.zeros((3,), jnp.int32), 0.0, c, h, False))
+    env_stub = {"a": jnp.ones((5, 2)), "empty": jnp.zeros((0,)), "b": jnp.arange(3)}  # any env pytree
+    state = Stage1State(env=env_stub, learner=learner, replay=buffer, key=jnp.zeros((2,), jnp.uint32),
+                        iteration=jnp.asarray(7, jnp.int32))
+    run = str(tmp_path / "run")
+    checkpoint.save_config(run, cfg)
+    checkpoint.save(run, 7, state)
+    run_cfg, variables, step = E.load_gdnet(run)
+    assert step == 7 and run_cfg == cfg
+    assert checkpoint.tree_equal(variables["params"], learner.params)
+    assert checkpoint.tree_equal(variables["batch_stats"], learner.batch_stats)
+    # A config that does not describe the checkpoint is refused with a message.
+    checkpoint.save_config(run, C.replace(cfg, **{"net.small_width": 16}))
+    with pytest.raises(checkpoint.CheckpointError, match="different config"):
+        E.load_gdnet(run)
+    with pytest.raises(checkpoint.CheckpointError, match="available steps"):
+        E.load_gdnet(run, step=3)
+
+
+# ----------------------------------------------------------------------------- policies on maps
+
+
+def _bars(cfg):
+    H = cfg.workspace.heightmap_px
+    h = np.zeros((3, H, H), np.float32)
+    h[0, 14:18, 5:25] = 0.05  # bar along x: narrow along y -> closing axis 90 deg
+    h[1, 5:25, 14:18] = 0.05  # bar along y -> 0 deg
+    h[2, 10:13, 10:13] = 0.03
+    h[2, 20:24, 20:23] = 0.06  # the higher block wins
+    return h
+
+
+def test_heuristic_picks_narrow_axis_on_the_highest_object():
+    cfg = C.tiny()
+    action, width = jax.jit(E.min_width_grasp, static_argnums=1)(jnp.asarray(_bars(cfg)), cfg)
+    action, width = np.asarray(action), np.asarray(width)
+    R = cfg.grasp.n_rotations
+    assert action[0, 0] == R // 4 and 14 <= action[0, 1] <= 17 and 5 <= action[0, 2] <= 24
+    assert action[1, 0] == 0 and 14 <= action[1, 2] <= 17
+    assert 20 <= action[2, 1] <= 23 and 20 <= action[2, 2] <= 22
+    assert (width <= cfg.grasp.finger_stroke).all()
+
+
+def test_random_and_gdnet_policies_on_maps():
+    cfg = C.tiny()
+    h = _bars(cfg)
+    z = jnp.zeros((3,), jnp.int32)
+    state = EnvState(sim=None, color=jnp.zeros(h.shape + (3,), jnp.uint8), height=jnp.asarray(h),
+                     attempts=z, successes=z, motions=z, travel=z.astype(jnp.float32))
+    act = jax.jit(E.random_act(cfg))
+    for i in range(3):
+        a = np.asarray(act(None, jax.random.PRNGKey(i), state))
+        assert (h[np.arange(3), a[:, 1], a[:, 2]] > 0).all() and (0 <= a[:, 0]).all() and (a[:, 0] < 16).all()
+    net = make_qnet(cfg.net, "gdnet")
+    variables = init_qnet(jax.random.PRNGKey(0), net, h.shape[1], h.shape[2])
+    a = np.asarray(E.make_policy("gdnet", cfg, variables).act(variables, None, state))
+    q = np.asarray(net.apply(variables, state.color, state.height, False))
+    assert a.shape == (3, 3)
+    np.testing.assert_allclose(q[np.arange(3), a[:, 0], a[:, 1], a[:, 2]], q.reshape(3, -1).max(1))
+
+
+# ----------------------------------------------------------------------------- one real tiny evaluation
+
+
+@pytest.fixture(scope="module")
+def tiny_eval(tiny_cfg):
+    cfg = C.replace(tiny_cfg, **{"stage1.max_attempts_extra": 1})
+    ev = E.Evaluator(cfg)
+    policy = E.make_policy("heuristic", cfg)
+    report = E.evaluate(cfg, policy, groups=(1, 2), rounds=2, seed=0, evaluator=ev)
+    return cfg, ev, policy, report
+
+
+def test_tiny_heuristic_evaluation_is_sane(tiny_eval):
+    cfg, _, _, report = tiny_eval
+    assert [m["n_objects"] for m in report["groups_metrics"]] == [1, 2]
+    for m in report["groups_metrics"] + [report["overall"]]:
+        for k in ("grasp_success_rate", "clearing_rate"):
+            assert 0.0 <= m[k] <= 1.0
+        assert m["physics_errors"] == 0 and m["buffer_overflows"] == 0
+        assert m["successes"] <= m["objects"]
+        if m["successes"]:
+            assert m["motion_number"] >= 1.0 and m["picks_per_hour"] > 0
+    for k, out in report["outcomes"].items():
+        k = int(k)
+        n, att, succ = (np.asarray(out[f]) for f in ("n_objects", "attempts", "successes"))
+        assert (n == k).all() and (att >= 1).all() and (att <= 2 * k + 1).all()
+        assert (succ <= att).all() and (np.asarray(out["motions"]) == att).all()
+        assert (succ <= np.asarray(out["on_object"])).all() and (np.asarray(out["on_object"]) <= att).all()
+        assert (np.asarray(out["travel"]) > 0).all()
+        # A round stops as soon as it is cleared, and only then before its budget.
+        left = np.asarray(out["remaining"])
+        assert ((att == 2 * k + 1) | (left == 0)).all()
+    overall = report["overall"]
+    assert overall["attempts"] == sum(m["attempts"] for m in report["groups_metrics"])
+    print(E.format_table(report))
+
+
+def test_tiny_evaluation_is_reproducible(tiny_eval):
+    cfg, ev, policy, report = tiny_eval
+    again = ev.run_group(policy, jax.random.fold_in(jax.random.PRNGKey(0), 1), 1, 2)
+    assert again.to_json() == report["outcomes"]["1"]
