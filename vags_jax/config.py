@@ -117,6 +117,10 @@ class Sim:
     # Contact / constraint buffers.  None -> sized from the scene (see sim.py).
     naconmax: Optional[int] = None  # warp: contacts across all worlds
     njmax: Optional[int] = None  # warp: constraint rows per world
+    # Contact budget per world.  jax: MJX "max_contact_points" (the deepest contacts are kept; cuts
+    # constraint rows); warp: naconmax = B * this when naconmax is None.
+    # None -> 20 * scene.max_objects + 56 (see sim.py).  Overflow is flagged in SimState.overflow.
+    contacts_per_world: Optional[int] = None
 
     def __post_init__(self):
         _check(

@@ -154,9 +154,7 @@ class VagsEnv:
         the reset worlds' heightmaps are stale until the caller observes.
         """
         def do_reset(s):
-            fresh = self.step_reset(key, n_objects, observe)
-            return jax.tree.map(
-                lambda new, old: jnp.where(mask.reshape((-1,) + (1,) * (new.ndim - 1)), new, old), fresh, s)
+            return where_worlds(mask, self.step_reset(key, n_objects, observe), s)
 
         return jax.lax.cond(mask.any(), do_reset, lambda s: s, state)
 
@@ -212,7 +210,7 @@ class VagsEnv:
         key = _raw_key(key)
         self.prepare(n.shape[0])
         state = self._reset_jit(key, jnp.asarray(n, jnp.int32))
-        check_overflow(state.sim)
+        check_overflow(state.sim, warn=True)  # warns, naming the worlds; they can be reset again
         return state
 
     def grasp(self, state: EnvState, pixel, rotation, key=None):
@@ -257,6 +255,22 @@ class VagsEnv:
         return state, result
 
 
+def where_worlds(mask: jax.Array, a, b):
+    """Per world: ``a`` where mask (B,) is set, else ``b`` (two pytrees of the same structure).
+
+    Leaves without a leading world dimension -- impl "warp" carries buffers shared by all
+    worlds (contacts, counters), rebuilt on every step -- are taken from ``b``.
+    """
+    B = mask.shape[0]
+
+    def pick(x, y):
+        if x.ndim == 0 or x.shape[0] != B or x.shape != y.shape:
+            return y
+        return jnp.where(mask.reshape((-1,) + (1,) * (x.ndim - 1)), x, y)
+
+    return jax.tree.map(pick, a, b)
+
+
 def _raw_key(key) -> jax.Array:
     key = jnp.asarray(key)
     if jnp.issubdtype(key.dtype, jax.dtypes.prng_key):
@@ -266,4 +280,4 @@ def _raw_key(key) -> jax.Array:
     return key
 
 
-__all__ = ["EnvState", "VagsEnv", "GraspResult"]
+__all__ = ["EnvState", "VagsEnv", "GraspResult", "where_worlds"]

@@ -55,7 +55,7 @@ import numpy as np
 from flax import struct
 
 from vags_jax.config import Config, to_dict
-from vags_jax.env import EnvState, VagsEnv
+from vags_jax.env import EnvState, VagsEnv, where_worlds
 
 POLICIES = ("gdnet", "random", "highest", "heuristic")
 DEFAULT_GROUPS = tuple(range(1, 11))
@@ -427,8 +427,7 @@ class Evaluator:
             s2, res = env.step_grasp(c.env, pixel, rot, k_obs if noise else None)
             # Finished worlds keep their state: their outcome is ignored.
             keep = c.done
-            s2 = jax.tree.map(lambda old, new: jnp.where(keep.reshape((-1,) + (1,) * (new.ndim - 1)), old, new),
-                              c.env, s2)
+            s2 = where_worlds(keep, c.env, s2)
             lifted = jnp.stack([position[:, 0], position[:, 1],
                                 jnp.maximum(position[:, 2], tz + g.min_height_above_table) + g.lift_height], 1)
             back = jnp.linalg.norm(lifted - self._start, axis=1)

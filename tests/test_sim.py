@@ -1,0 +1,249 @@
+"""Simulator: reset and the grasp primitive (impl "jax", CPU).
+
+Built to be fast: one tiny scene (a cube and a long cuboid), one compiled reset (8 worlds)
+and ONE compiled grasp call whose 56 worlds hold every grasp scenario at once.
+"""
+import mujoco
+import numpy as np
+import pytest
+import jax
+import jax.numpy as jnp
+
+from vags_jax.config import Config, replace
+from vags_jax.scene import FINGER_CLOSED_TARGET, build_scene
+from vags_jax.sim import GraspResult, SimState, Simulator, check_overflow
+
+N_CUBE, N_EMPTY, N_LONG = 40, 8, 8
+CUBE, LONG = 0, 1  # pool indices (shapes = ("cube", "cuboid_long"), one copy each)
+
+
+@pytest.fixture(scope="module")
+def cfg():
+    return replace(Config(), **{
+        "scene.shapes": ("cube", "cuboid_long"), "scene.copies_per_shape": 1,
+        "scene.max_objects": 2, "stage1.max_objects": 2,
+    })
+
+
+@pytest.fixture(scope="module")
+def scene(cfg):
+    return build_scene(cfg)
+
+
+@pytest.fixture(scope="module")
+def sim(cfg, scene):
+    return Simulator(cfg, scene)
+
+
+@pytest.fixture(scope="module")
+def reset_state(sim):
+    n = jnp.array([1, 2, 1, 2, 2, 1, 2, 2])
+    return n, sim.reset(jax.random.PRNGKey(0), n)
+
+
+def _yaw_quat(theta):
+    """(B,) -> (B, 4) wxyz rotation about z."""
+    return jnp.stack([jnp.cos(theta / 2), 0 * theta, 0 * theta, jnp.sin(theta / 2)], axis=-1)
+
+
+@pytest.fixture(scope="module")
+def grasp_batch(sim, cfg):
+    """56 worlds: 40 isolated cubes grasped correctly, 8 empty spots, 8 long cuboids grasped
+    with the closing axis along their 10 cm length.  One jitted grasp call."""
+    B = N_CUBE + N_EMPTY + N_LONG
+    P = sim.P
+    rng = np.random.default_rng(0)
+    xy = rng.uniform(-0.17, 0.17, (B, 2))
+    theta = rng.uniform(-np.pi, np.pi, B)
+    pos = np.zeros((B, P, 3))
+    quat = np.tile([1.0, 0, 0, 0], (B, P, 1))
+    active = np.zeros((B, P), bool)
+    grasp_xy = xy.copy()
+    grasp_yaw = theta.copy()
+    # cubes: any face-normal yaw is correct
+    c = slice(0, N_CUBE)
+    pos[c, CUBE, :2], pos[c, CUBE, 2] = xy[c], 0.025
+    quat[c, CUBE] = _yaw_quat(theta[c])
+    active[c, CUBE] = True
+    grasp_yaw[c] = theta[c] + rng.integers(0, 4, N_CUBE) * np.pi / 2
+    # empty spots: half with a cube far away, half with nothing
+    e = slice(N_CUBE, N_CUBE + N_EMPTY)
+    grasp_xy[e] = rng.uniform(0.05, 0.17, (N_EMPTY, 2))
+    pos[e, CUBE, :2], pos[e, CUBE, 2] = -grasp_xy[e], 0.025
+    active[N_CUBE: N_CUBE + N_EMPTY // 2, CUBE] = True
+    # long cuboid (long axis = body x), closing axis along it: wrong by 90 degrees
+    lg = slice(N_CUBE + N_EMPTY, B)
+    pos[lg, LONG, :2], pos[lg, LONG, 2] = xy[lg], 0.025
+    quat[lg, LONG] = _yaw_quat(theta[lg])
+    active[lg, LONG] = True
+
+    state = sim.set_objects(sim.empty(B), pos, quat, active)
+    z = np.where(active.any(1), 0.05 - cfg.grasp.depth_below_surface, -0.03)  # surface - 3 cm
+    position = np.concatenate([grasp_xy, z[:, None]], axis=1)
+    new_state, res = sim.grasp_at(state, position, grasp_yaw)
+    jax.block_until_ready(res.success)
+    return dict(state=state, new_state=new_state, res=res, position=position, yaw=grasp_yaw,
+                pos=pos, quat=quat, active=active)
+
+
+# ----------------------------------------------------------------------------- grasping
+
+
+def test_grasp_centre_of_cube_succeeds(grasp_batch):
+    res = grasp_batch["res"]
+    ok = np.asarray(res.success[:N_CUBE])
+    print(f"cube grasp success {ok.sum()}/{N_CUBE}")
+    assert ok.mean() >= 0.95, f"cube grasp success {ok.mean():.2%}"
+    np.testing.assert_array_equal(np.asarray(res.object[:N_CUBE])[ok], CUBE)
+    gap = np.asarray(res.gripper_gap[:N_CUBE])[ok]
+    np.testing.assert_allclose(gap, 0.05, atol=0.008)  # fingers stopped by the 5 cm cube
+
+
+def test_grasped_object_is_parked_and_gripper_too(grasp_batch, sim, scene):
+    res, st = grasp_batch["res"], grasp_batch["new_state"]
+    ok = np.asarray(res.success)
+    active = np.asarray(st.active)
+    assert not active[ok, CUBE].any(), "grasped cube must be removed from the table"
+    pos = np.asarray(sim.object_positions(st))
+    np.testing.assert_allclose(pos[ok, CUBE], np.broadcast_to(scene.park_qpos[CUBE, :3], pos[ok, CUBE].shape), atol=1e-6)
+    gq = np.asarray(st.data.qpos)[:, scene.gripper_qpos_adr]
+    np.testing.assert_allclose(gq[:, :3], np.broadcast_to(scene.gripper_park_qpos[:3], gq[:, :3].shape), atol=0.02)
+    # poses are up to date for the renderer
+    np.testing.assert_allclose(np.asarray(st.data.xpos)[ok][:, scene.object_body_ids[CUBE]],
+                               np.broadcast_to(scene.park_qpos[CUBE, :3], (ok.sum(), 3)), atol=1e-6)
+    assert not np.asarray(st.error).any() and not np.asarray(st.overflow).any()
+    check_overflow(st)
+
+
+def test_grasp_on_empty_spot_fails(grasp_batch):
+    res, st = grasp_batch["res"], grasp_batch["new_state"]
+    e = slice(N_CUBE, N_CUBE + N_EMPTY)
+    assert not np.asarray(res.success[e]).any()
+    np.testing.assert_array_equal(np.asarray(res.object[e]), -1)
+    assert np.all(np.asarray(res.gripper_gap[e]) < 0.005)  # closed on nothing
+    # the far-away cube is untouched and still on the table
+    np.testing.assert_array_equal(np.asarray(st.active[e]), grasp_batch["active"][e])
+
+
+def test_grasp_along_long_axis_of_cuboid_fails(grasp_batch):
+    res, st = grasp_batch["res"], grasp_batch["new_state"]
+    lg = slice(N_CUBE + N_EMPTY, None)
+    assert not np.asarray(res.success[lg]).any()
+    assert np.asarray(st.active[lg, LONG]).all()
+
+
+def test_grasp_travel_distances(grasp_batch, cfg):
+    res, position = grasp_batch["res"], grasp_batch["position"]
+    z = np.maximum(position[:, 2], cfg.grasp.min_height_above_table)
+    pre = np.concatenate([position[:, :2], (z + cfg.grasp.approach_height)[:, None]], axis=1)
+    expect = np.linalg.norm(pre - np.array(cfg.camera.global_position), axis=1)
+    np.testing.assert_allclose(np.asarray(res.approach), expect, rtol=1e-5)
+    np.testing.assert_allclose(np.asarray(res.descend), cfg.grasp.approach_height, rtol=1e-5)
+    np.testing.assert_allclose(np.asarray(res.lift), cfg.grasp.lift_height)
+    assert isinstance(res, GraspResult) and res.success.shape == (position.shape[0],)
+
+
+def test_mujoco_c_runs_the_same_grasp(grasp_batch, sim, scene):
+    """The scene compiles in MuJoCo C; the same scripted grasp (schedule of the simulator)
+    lifts the cube there too, and the final pad gap agrees with MJX."""
+    m = scene.mj_model
+    d = mujoco.MjData(m)
+    mujoco.mj_resetDataKeyframe(m, d, mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_KEY, "park"))
+    w = 0
+    a = scene.object_qpos_adr[CUBE]
+    d.qpos[a: a + 7] = np.concatenate([grasp_batch["pos"][w, CUBE], grasp_batch["quat"][w, CUBE]])
+    x, y, zg = grasp_batch["position"][w]
+    yaw = (grasp_batch["yaw"][w] + np.pi / 2) % np.pi - np.pi / 2
+    zpre = zg + sim.cfg.grasp.approach_height
+    fo = sim.finger_open
+    d.qpos[scene.gripper_qpos_adr] = [x, y, zpre, yaw, fo, fo]
+    for s in sim.schedule:
+        z = zpre + (zg - zpre) * s[0] + sim.cfg.grasp.lift_height * s[1]
+        d.ctrl[scene.gripper_actuator_ids] = [x, y, z, yaw, fo + (FINGER_CLOSED_TARGET - fo) * s[2]]
+        mujoco.mj_step(m, d)
+    assert d.qpos[a + 2] > 0.025 + sim.cfg.grasp.success_lift
+    gap_c = d.qpos[scene.gripper_qpos_adr[4]] + d.qpos[scene.gripper_qpos_adr[5]]
+    assert bool(grasp_batch["res"].success[w])
+    assert abs(gap_c - float(grasp_batch["res"].gripper_gap[w])) < 0.002
+
+
+# ----------------------------------------------------------------------------- reset
+
+
+def test_reset_puts_n_objects_on_the_table_at_rest(reset_state, sim, scene, cfg):
+    n, st = reset_state
+    assert isinstance(st, SimState)
+    B = n.shape[0]
+    active = np.asarray(st.active)
+    assert active.shape == (B, sim.P)
+    np.testing.assert_array_equal(active.sum(1), np.asarray(n))
+    np.testing.assert_array_equal(np.asarray(st.n_objects), np.asarray(n))
+    pos = np.asarray(sim.object_positions(st))
+    xmin, xmax, ymin, ymax = cfg.workspace.bounds
+    on = pos[active]
+    assert np.all((on[:, 0] > xmin) & (on[:, 0] < xmax) & (on[:, 1] > ymin) & (on[:, 1] < ymax))
+    assert np.all((on[:, 2] > 0.0) & (on[:, 2] < 0.15)), on[:, 2]
+    qvel = np.asarray(st.data.qvel)
+    for b in range(B):
+        for i in np.flatnonzero(active[b]):
+            v = qvel[b, scene.object_dof_adr[i]: scene.object_dof_adr[i] + 6]
+            assert np.abs(v[:3]).max() < 0.05 and np.abs(v[3:]).max() < 1.0, (b, i, v)
+    parked = pos[~active]
+    idx = np.nonzero(~active)[1]
+    np.testing.assert_allclose(parked, scene.park_qpos[idx, :3], atol=1e-6)
+    assert not np.asarray(st.error).any() and not np.asarray(st.overflow).any()
+    # colours: objects from the palette, distinct within a world; table / ground fixed
+    rgb = np.asarray(st.geom_rgb)
+    assert rgb.shape == (B, scene.mj_model.ngeom, 3) and rgb.dtype == np.uint8
+    pal = {tuple(c) for c in scene.palette}
+    for b in range(B):
+        cols = [tuple(rgb[b, scene.object_geom_ids[i]]) for i in np.flatnonzero(active[b])]
+        assert set(cols) <= pal and len(set(cols)) == len(cols)
+    np.testing.assert_array_equal(rgb[:, scene.table_geom_id], np.broadcast_to(scene.default_geom_rgb[scene.table_geom_id], (B, 3)))
+
+
+def test_reset_draws_random_shapes(reset_state):
+    n, st = reset_state
+    active = np.asarray(st.active)
+    single = active[np.asarray(n) == 1]
+    assert single[:, CUBE].any() and single[:, LONG].any() or len(single) < 3
+
+
+@pytest.mark.parametrize("bad", [[0, 1], [1, 3], [-1], [1.5, 1.0], []])
+def test_reset_rejects_bad_object_counts(sim, bad):
+    with pytest.raises(ValueError, match=r"1\.\.2"):
+        sim.reset(jax.random.PRNGKey(0), np.array(bad))
+
+
+def test_check_overflow_raises_and_warns(reset_state):
+    _, st = reset_state
+    check_overflow(st)  # clean state: silent
+    bad = st.replace(overflow=st.overflow.at[3].set(True))
+    with pytest.raises(RuntimeError, match="naconmax"):
+        check_overflow(bad)
+    with pytest.warns(RuntimeWarning, match="worlds"):
+        check_overflow(st.replace(error=st.error.at[0].set(True)), warn=True)
+
+
+def test_warp_without_warp_lang_is_a_clear_error(cfg, scene):
+    try:
+        import warp  # noqa: F401
+        pytest.skip("warp-lang is installed")
+    except ImportError:
+        pass
+    with pytest.raises(ImportError, match="warp-lang"):
+        Simulator(replace(cfg, **{"sim.impl": "warp"}), scene)
+
+
+def test_reset_and_grasp_trace_inside_an_outer_jit(sim):
+    """Usable in a jitted training loop with traced n_objects (shape-only, nothing compiled)."""
+    B = 3
+
+    def loop(key, n, position, yaw):
+        st = sim.reset(key, n)
+        return sim.grasp_at(st, position, yaw)
+
+    st, res = jax.eval_shape(loop, jax.random.PRNGKey(0), jnp.array([1, 2, 1]),
+                             jnp.zeros((B, 3)), jnp.zeros((B,)))
+    assert st.active.shape == (B, sim.P) and st.geom_rgb.shape[0] == B
+    assert res.success.shape == (B,) and res.object.dtype == jnp.int32

@@ -1,0 +1,600 @@
+"""Batched MJX physics: scene reset (drop + settle) and the top-down grasp primitive.
+
+``Simulator(cfg, scene)`` is built once.  It holds the ``mjx.Model`` for ``cfg.sim.impl``
+("jax": pure JAX, any device; "warp": MJX's MuJoCo Warp backend, NVIDIA GPUs, needs
+warp-lang) and jitted, batched functions over ``SimState`` (leading dim B = worlds):
+
+* ``reset(key, n_objects) -> SimState``: per world draw ``n_objects`` pool bodies at random
+  (random shapes), random palette colours (distinct within a world for up to 10 objects),
+  drop them at random x, y in the workspace shrunk by ``cfg.scene.drop_margin``, random
+  orientation, centre at ``cfg.scene.drop_height`` above the table; bodies whose bounding
+  spheres would overlap another earlier-drawn body's in xy are stacked above it (spawn never
+  interpenetrates), then ``cfg.scene.settle_time`` seconds of physics.  The rest is parked.
+* ``grasp_at(state, position, yaw) -> (SimState, GraspResult)``: one top-down grasp in every
+  world at once (see "Grasp" below).
+* helpers: ``empty`` (all parked, for scripted scenes), ``set_objects``, ``object_poses``,
+  ``object_positions``, ``park_objects``, ``settle``, ``take_worlds``; host-side
+  ``check_overflow(state)``.  Pure-jit users may call them inside their own jit.
+
+Parking (details in ``vags_jax.scene``): unused / grasped objects are pinned at fixed poses
+far outside the workspace (their qpos is reset and velocity zeroed after every step, so they
+never move and never touch anything); the gripper is teleported to a park pose 2 m beside the
+workspace between grasps.
+
+Grasp (all worlds, one jitted call; durations from ``cfg.grasp``):
+  0. the gripper is placed (teleported, at rest) with its TCP ``approach_height`` above the
+     grasp point, closing axis at ``yaw``, fingers open.  The grasp point is ``position`` with
+     z clamped to ``>= table_z + min_height_above_table``.  TCP = midpoint of the fingertips.
+  1. open / settle ``t_settle``;  2. descend to the grasp point ``t_descend`` (smooth profile
+     over the first 75 %, then hold);  3. close ``t_close``;  4. lift by ``lift_height``
+     ``t_lift`` (smooth over the first 75 %).
+  Then success is evaluated: an active object rose by more than ``success_lift`` and is above
+  ``table_z + success_lift`` and the pad gap is > ``closed_gap``.  The grasped object is the
+  lifted one nearest to the TCP; it is parked (active False).  The gripper is parked and the
+  scene settles for another ``t_settle`` so dropped / disturbed objects come to rest before
+  the next observation.  Objects that left the workspace square (or fell through the table)
+  are deactivated and parked too, after every reset and grasp.
+  Motion distances (commanded, metres, for a picks-per-hour model): ``approach`` = straight
+  line from ``start`` (default: ``cfg.camera.global_position``, where the eye-in-hand robot
+  captured the global view) to the pre-grasp pose; ``descend`` = pre-grasp to grasp point
+  (= approach_height); ``lift`` = lift_height.  Returning / placing is left to the model.
+
+Yaw convention: ``yaw`` is the angle of the CLOSING axis in the world xy-plane (fingers move
+along (cos yaw, sin yaw)); yaw and yaw + pi are the same grasp (wrapped to [-pi/2, pi/2)).
+
+Buffers and failures (never silently accepted):
+  * impl "warp": contacts and constraint rows live in fixed buffers (``naconmax`` contacts over
+    all worlds, ``njmax`` rows per world).  If ``cfg.sim.naconmax`` / ``njmax`` are None they
+    are sized from the scene: only active objects and the gripper can touch anything (parked
+    bodies are pinned far apart), so per world ``contacts_per_world`` = ``20 * N + 56``
+    contacts unless set (each object on the table 4, object-object ~16 per object, 2 pads x
+    up to 3 objects x 8 + pads on table) and ``3 * that + 16`` rows (elliptic condim-3
+    contacts use 3 rows, plus the finger equality and limits).
+    After every step the simulator compares the contact count / rows with the buffers; a full
+    buffer sets ``state.overflow`` for the world (for contacts: every world, the count is
+    global).
+  * impl "jax": MJX jax evaluates every candidate geom pair every step with a fixed number of
+    contact slots per pair (for the default 20-body pool about 1000 contacts and 3000
+    constraint rows per world, almost all between far-apart bodies).  The scene sets MJX's
+    ``max_contact_points`` to ``contacts_per_world`` (same formula / config field as warp), so
+    only the deepest contacts reach the solver.  Overflow = every kept contact penetrates
+    (more may have been dropped): ``state.overflow``.  Tiny scenes with fewer candidate
+    slots than the budget cannot overflow.  Numerical failures (NaNs, an object through the
+    table) set ``state.error`` (both impls).
+  Solver note: MuJoCo C (and likely MuJoCo Warp, whose solver follows C) with elliptic cones,
+  impratio 10, a 2 ms step and ``Sim.ls_iterations = 10`` injects energy when blocks land
+  and can blow up to NaN; ``ls_iterations >= 20`` is stable.  MJX jax (different line
+  search) was stable at 10 in our CPU tests.
+  ``check_overflow(state)`` (host side, between jitted calls) raises ``RuntimeError`` naming
+  the worlds and what to change (or warns with ``warn=True``).  Inside a jitted training loop
+  the flags are carried in the state: reset worlds whose ``error`` is set.
+"""
+from __future__ import annotations
+
+import warnings
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from flax import struct
+from mujoco import mjx
+
+from vags_jax.config import Config
+from vags_jax.scene import FINGER_CLOSED_TARGET, SceneModel, contacts_per_world
+
+# Thresholds for housekeeping.
+BELOW_TABLE = 0.02  # m; an object whose centre is this far below the table top fell through
+SPAWN_GAP = 0.005  # m between bounding spheres of stacked spawn poses
+
+
+@struct.dataclass
+class SimState:
+    """Batched simulator state, B worlds, P pool objects.
+
+    data: mjx.Data with leading dim B (qpos (B, nq), geom_xpos (B, ngeom, 3), ...).
+    active: (B, P) bool, object is on the table (drawn at reset, not grasped, not lost).
+    geom_rgb: (B, ngeom, 3) uint8 per-world colours for the renderer.
+    n_objects: (B,) int32 objects drawn at the last reset.
+    error: (B,) bool, physics failure since the last reset (NaN / object through the table).
+    overflow: (B,) bool, impl "warp": a contact / constraint buffer was full on some step.
+    """
+
+    data: mjx.Data
+    active: jax.Array
+    geom_rgb: jax.Array
+    n_objects: jax.Array
+    error: jax.Array
+    overflow: jax.Array
+
+    @property
+    def n_worlds(self) -> int:
+        return self.active.shape[0]
+
+
+@struct.dataclass
+class GraspResult:
+    """Outcome of one grasp per world, all (B,).
+
+    success: bool; object: int32 pool index of the grasped object or -1;
+    gripper_gap: pad gap after the lift (m); approach, descend, lift: commanded travel (m).
+    """
+
+    success: jax.Array
+    object: jax.Array
+    gripper_gap: jax.Array
+    approach: jax.Array
+    descend: jax.Array
+    lift: jax.Array
+
+
+def check_overflow(state: SimState, warn: bool = False) -> None:
+    """Host-side check of ``state.overflow`` and ``state.error``; raise RuntimeError (or warn)."""
+    overflow = np.asarray(jax.device_get(state.overflow))
+    error = np.asarray(jax.device_get(state.error))
+    msgs = []
+    if overflow.any():
+        msgs.append(
+            f"contact/constraint buffer full in {int(overflow.sum())} of {overflow.size} worlds "
+            f"(e.g. worlds {np.flatnonzero(overflow)[:8].tolist()}): contacts were dropped and "
+            "objects may fall through; raise Config.sim.contacts_per_world (impl 'jax'; "
+            "warp: naconmax = B x this) or Config.sim.naconmax (warp, contacts over all "
+            "worlds) and/or Config.sim.njmax (warp, constraint rows per world)"
+        )
+    if error.any():
+        msgs.append(
+            f"physics failure (NaN or an object through the table) in {int(error.sum())} of "
+            f"{error.size} worlds (e.g. worlds {np.flatnonzero(error)[:8].tolist()}): reset those "
+            "worlds; if it recurs lower Config.sim.timestep or raise Config.sim.iterations"
+        )
+    if msgs:
+        msg = "vags_jax.sim: " + "; ".join(msgs)
+        if warn:
+            warnings.warn(msg, RuntimeWarning, stacklevel=2)
+        else:
+            raise RuntimeError(msg)
+
+
+def _require_warp() -> None:
+    try:
+        import warp  # noqa: F401
+    except ImportError as e:
+        raise ImportError(
+            "Config.sim.impl='warp' needs warp-lang (MJX's MuJoCo Warp backend, NVIDIA GPU): "
+            "pip install 'vags_jax[warp]', or set Config.sim.impl='jax'"
+        ) from e
+
+
+def _smooth_ramp(n: int, frac: float) -> np.ndarray:
+    """(n,) goes 0 -> 1 along a half cosine over the first ``frac * n`` steps, then holds 1."""
+    k = max(1, int(round(frac * n)))
+    u = np.clip(np.arange(1, n + 1) / k, 0.0, 1.0)
+    return 0.5 - 0.5 * np.cos(np.pi * u)
+
+
+def _is_traced(x) -> bool:
+    return isinstance(x, jax.core.Tracer)
+
+
+class Simulator:
+    """Batched physics for one scene.  Build once; every public method is jit-compiled."""
+
+    def __init__(self, cfg: Config, scene: SceneModel):
+        self.cfg, self.scene = cfg, scene
+        m = scene.mj_model
+        self.impl = cfg.sim.impl
+        if self.impl == "warp":
+            _require_warp()
+        self.mx = mjx.put_model(m, impl=self.impl)
+        self.P, self.N = scene.pool_size, cfg.scene.max_objects
+        self.nq, self.nv, self.nu = m.nq, m.nv, m.nu
+        self._obj_qidx = scene.object_qpos_adr[:, None] + np.arange(7)  # (P, 7)
+        self._obj_vidx = scene.object_dof_adr[:, None] + np.arange(6)  # (P, 6)
+        self._qpos0 = scene.park_qpos_full  # (nq,) objects and gripper parked
+        self._g_q = scene.gripper_qpos_adr
+        self._g_v = scene.gripper_dof_adr
+        self._g_act = scene.gripper_actuator_ids
+        self.finger_open = cfg.grasp.finger_stroke / 2
+        self._ctrl_park = scene.park_ctrl  # (nu,)
+
+        dt = cfg.sim.timestep
+        g = cfg.grasp
+        steps = lambda t: max(1, int(round(t / dt)))  # noqa: E731
+        self.n_settle_reset = int(round(cfg.scene.settle_time / dt))
+        n_open, n_desc, n_close, n_lift = (steps(t) for t in (g.t_settle, g.t_descend, g.t_close, g.t_lift))
+        self.n_post = n_open
+        zeros, ones = np.zeros, np.ones
+        descend = np.concatenate([zeros(n_open), _smooth_ramp(n_desc, 0.75), ones(n_close + n_lift)])
+        lift = np.concatenate([zeros(n_open + n_desc + n_close), _smooth_ramp(n_lift, 0.75)])
+        close_ramp = np.clip(np.arange(1, n_close + 1) / max(1, n_close // 3), 0.0, 1.0)
+        close = np.concatenate([zeros(n_open + n_desc), close_ramp, ones(n_lift)])
+        # (T, 3) per-step fractions (descend, lift, close) of the grasp up to the evaluation:
+        # TCP z = zpre + (zg - zpre) * descend + lift_height * lift,
+        # finger target = open + (closed - open) * close.
+        self.schedule = np.stack([descend, lift, close], axis=1).astype(np.float32)
+        self.n_grasp_steps = self.schedule.shape[0] + self.n_post
+
+        self._template_cache: dict[int, mjx.Data] = {}
+        self._reset_jit = jax.jit(self._reset_impl)
+        self._grasp_jit = jax.jit(self._grasp_impl)
+        self._settle_jit = jax.jit(self._settle_impl, static_argnums=1)
+        self._set_jit = jax.jit(self._set_objects_impl)
+        self._empty_jit = jax.jit(self._empty_impl, static_argnums=0)
+        self._park_jit = jax.jit(self._park_objects_impl)
+        self._take_jit = jax.jit(self._take_worlds_impl)
+
+    # ------------------------------------------------------------------ buffers (warp)
+
+    @property
+    def contacts_per_world(self) -> int:
+        return contacts_per_world(self.cfg)
+
+    def buffer_sizes(self, n_worlds: int) -> tuple[int, int]:
+        """(naconmax over all worlds, njmax per world) used for impl "warp"."""
+        nacon = self.cfg.sim.naconmax or n_worlds * self.contacts_per_world
+        njmax = self.cfg.sim.njmax or 3 * self.contacts_per_world + 16
+        return int(nacon), int(njmax)
+
+    def _template(self, n_worlds: int) -> mjx.Data:
+        key = n_worlds if self.impl == "warp" else 0
+        if key not in self._template_cache:
+            # Built eagerly (concrete arrays) even when first asked for inside a jit trace.
+            with jax.ensure_compile_time_eval():
+                self._template_cache[key] = self._make_template(n_worlds)
+        return self._template_cache[key]
+
+    def _make_template(self, n_worlds: int) -> mjx.Data:
+        """One unbatched Data; for warp its buffers are sized for ``n_worlds`` worlds."""
+        if self.impl == "warp":
+            nacon, njmax = self.buffer_sizes(n_worlds)
+            return mjx.make_data(self.scene.mj_model, impl="warp", naconmax=nacon, njmax=njmax)
+        return mjx.make_data(self.mx, impl="jax")
+
+    def _overflow_now(self, d: mjx.Data, B: int) -> jax.Array:
+        """(B,) bool: a contact / constraint buffer is full after this step."""
+        if self.impl != "warp":
+            # MJX jax keeps the deepest max_contact_points contacts: full when all kept
+            # contacts are penetrating (more may have been dropped).
+            dist = d._impl.contact.dist  # noqa: SLF001  (B, ncon)
+            if dist.shape[-1] < self.contacts_per_world:
+                return jnp.zeros((B,), bool)  # every candidate pair has its slots
+            return (dist.reshape(B, -1) < 0).sum(axis=1) >= dist.shape[-1]
+        impl = d._impl  # noqa: SLF001
+        nacon = jnp.max(jnp.asarray(impl.nacon))
+        nefc = jnp.asarray(impl.nefc).reshape(B, -1).max(axis=1)
+        return (nacon >= impl.naconmax) | (nefc >= impl.njmax)
+
+    # ------------------------------------------------------------------ low-level pieces
+
+    def _fresh_data(self, qpos, qvel, ctrl) -> mjx.Data:
+        """New batched Data from qpos (B, nq), qvel (B, nv), ctrl (B, nu), poses evaluated."""
+        d0 = self._template(qpos.shape[0])
+
+        def one(q, v, c):
+            return mjx.kinematics(self.mx, d0.replace(qpos=q, qvel=v, ctrl=c))
+
+        return jax.vmap(one)(qpos, qvel, ctrl)
+
+    def _kinematics(self, d: mjx.Data) -> mjx.Data:
+        """Body / geom poses (xpos, geom_xpos, geom_xmat, ...) from qpos, for the renderer.
+
+        Cheap (no collision or solver) so that teleports are visible at once; velocities and
+        forces are recomputed by the next step anyway.
+        """
+        return jax.vmap(mjx.kinematics, in_axes=(None, 0))(self.mx, d)
+
+    def _pin_masks(self, active):
+        """active (B, P) -> (pin_q (B, nq), pin_v (B, nv)) bool: coordinates of parked bodies."""
+        B = active.shape[0]
+        parked = ~active
+        pin_q = jnp.zeros((B, self.nq), bool).at[:, self._obj_qidx].set(
+            jnp.broadcast_to(parked[..., None], (B, self.P, 7)))
+        pin_v = jnp.zeros((B, self.nv), bool).at[:, self._obj_vidx].set(
+            jnp.broadcast_to(parked[..., None], (B, self.P, 6)))
+        return pin_q, pin_v
+
+    def _pin(self, d: mjx.Data, pin_q, pin_v) -> mjx.Data:
+        return d.replace(
+            qpos=jnp.where(pin_q, self._qpos0, d.qpos),
+            qvel=jnp.where(pin_v, 0.0, d.qvel),
+        )
+
+    def _run(self, d: mjx.Data, active, overflow, ctrl_fn, xs):
+        """Step all worlds once per element of xs (leading dim T); ctrl_fn(x) -> (B, nu).
+
+        Parked bodies (~active) are pinned after every step.  Returns (data, overflow (B,)).
+        """
+        B = active.shape[0]
+        pin_q, pin_v = self._pin_masks(active)
+        step = jax.vmap(mjx.step, in_axes=(None, 0))
+
+        def body(carry, x):
+            d, ovf = carry
+            d = step(self.mx, d.replace(ctrl=ctrl_fn(x)))
+            d = self._pin(d, pin_q, pin_v)
+            return (d, ovf | self._overflow_now(d, B)), None
+
+        (d, overflow), _ = jax.lax.scan(body, (self._pin(d, pin_q, pin_v), overflow), xs)
+        return d, overflow
+
+    def _park_ctrl(self, B: int):
+        return jnp.broadcast_to(jnp.asarray(self._ctrl_park), (B, self.nu))
+
+    def _housekeep(self, state: SimState) -> SimState:
+        """Deactivate + park objects outside the workspace, flag NaNs / tunnelling, poses."""
+        d = state.data
+        pos = d.qpos[:, self._obj_qidx[:, :3]]  # (B, P, 3)
+        xmin, xmax, ymin, ymax = self.cfg.workspace.bounds
+        tz = self.cfg.workspace.table_z
+        inside = (pos[..., 0] >= xmin) & (pos[..., 0] <= xmax) & (pos[..., 1] >= ymin) & (pos[..., 1] <= ymax)
+        below = pos[..., 2] < tz - BELOW_TABLE
+        finite = jnp.isfinite(d.qpos).all(axis=1) & jnp.isfinite(d.qvel).all(axis=1)
+        error = state.error | ~finite | (state.active & below).any(axis=1)
+        active = state.active & inside & ~below
+        pin_q, pin_v = self._pin_masks(active)
+        d = self._kinematics(self._pin(d, pin_q, pin_v))
+        return state.replace(data=d, active=active, error=error)
+
+    # ------------------------------------------------------------------ reset
+
+    def _sample_world(self, key, n):
+        """One world's draw: n () int -> obj_qpos (P, 7), active (P,), rgb (P, 3) uint8."""
+        cfg, sc = self.cfg, self.scene
+        P, N = self.P, self.N
+        k_perm, k_xy, k_rot, k_col = jax.random.split(key, 4)
+        perm = jax.random.permutation(k_perm, P)  # perm[j] = j-th drawn body
+        rank = jnp.argsort(perm)  # rank[i] = draw position of body i
+        active = rank < n
+        xmin, xmax, ymin, ymax = cfg.workspace.bounds
+        mg = cfg.scene.drop_margin
+        lo = jnp.array([xmin + mg, ymin + mg])
+        hi = jnp.array([xmax - mg, ymax - mg])
+        xy = jax.random.uniform(k_xy, (P, 2), minval=lo, maxval=hi)
+        quat = jax.random.normal(k_rot, (P, 4))
+        quat = quat / jnp.linalg.norm(quat, axis=1, keepdims=True)
+
+        # Spawn heights in draw order: above every earlier body whose xy footprint overlaps.
+        radius = jnp.asarray(sc.object_radius)
+        slot = perm[:N]
+        sxy, sr = xy[slot], radius[slot]
+        base = cfg.workspace.table_z + jnp.maximum(cfg.scene.drop_height, sr + SPAWN_GAP)
+
+        def place(j, z):
+            dist = jnp.linalg.norm(sxy - sxy[j], axis=1)
+            overlap = (jnp.arange(N) < j) & (dist < sr + sr[j] + SPAWN_GAP)
+            above = jnp.where(overlap, z + sr + sr[j] + SPAWN_GAP, -jnp.inf).max()
+            return z.at[j].set(jnp.maximum(base[j], above))
+
+        sz = jax.lax.fori_loop(0, N, place, jnp.zeros(N))
+        z = jnp.zeros(P).at[slot].set(sz)
+        drop = jnp.concatenate([xy, z[:, None], quat], axis=1)
+        obj_qpos = jnp.where(active[:, None], drop, jnp.asarray(sc.park_qpos))
+        colours = jax.random.permutation(k_col, sc.palette.shape[0])
+        rgb = jnp.asarray(sc.palette)[colours[rank % sc.palette.shape[0]]]
+        return obj_qpos, active, rgb
+
+    def _reset_impl(self, keys, n_objects) -> SimState:
+        B = keys.shape[0]
+        obj_qpos, active, rgb = jax.vmap(self._sample_world)(keys, n_objects)
+        qpos = jnp.broadcast_to(jnp.asarray(self._qpos0), (B, self.nq))
+        qpos = qpos.at[:, self._obj_qidx].set(obj_qpos)
+        d = self._fresh_data(qpos, jnp.zeros((B, self.nv)), self._park_ctrl(B))
+        ovf = self._overflow_now(d, B)
+        park_ctrl = self._park_ctrl(B)
+        d, ovf = self._run(d, active, ovf, lambda _: park_ctrl, jnp.zeros((self.n_settle_reset,)))
+        geom_rgb = jnp.broadcast_to(jnp.asarray(self.scene.default_geom_rgb), (B,) + self.scene.default_geom_rgb.shape)
+        geom_rgb = geom_rgb.at[:, self.scene.object_geom_ids].set(rgb)
+        state = SimState(
+            data=d, active=active, geom_rgb=geom_rgb, n_objects=n_objects.astype(jnp.int32),
+            error=jnp.zeros((B,), bool), overflow=ovf,
+        )
+        return self._housekeep(state)
+
+    def reset(self, key, n_objects) -> SimState:
+        """New scenes.  key: (2,) or (B, 2) uint32 (or typed key () / (B,)); n_objects: (B,) int.
+
+        Concrete n_objects outside 1..N raise ValueError; traced ones (inside an outer jit)
+        are not checked.  Returns a SimState with B worlds.
+        """
+        if jnp.issubdtype(jnp.asarray(key).dtype, jax.dtypes.prng_key):
+            key = jax.random.key_data(key)
+        n_arr = jnp.asarray(n_objects)
+        if not _is_traced(n_objects):
+            n_np = np.asarray(n_objects)
+            if not np.issubdtype(n_np.dtype, np.integer) or n_np.ndim > 1 or n_np.size == 0 \
+                    or n_np.min() < 1 or n_np.max() > self.N:
+                raise ValueError(
+                    f"n_objects must be integers in 1..{self.N} (Config.scene.max_objects = "
+                    f"{self.N}), one per world as a (B,) array; got {n_np.tolist()!r}"
+                )
+        n_arr = jnp.atleast_1d(n_arr).astype(jnp.int32)
+        key = jnp.asarray(key)
+        if key.ndim == 1:
+            keys = jax.random.split(key, n_arr.shape[0])
+        elif key.ndim == 2:
+            keys = key
+            if n_arr.shape[0] == 1 and keys.shape[0] > 1:
+                n_arr = jnp.broadcast_to(n_arr, (keys.shape[0],))
+            if keys.shape[0] != n_arr.shape[0]:
+                raise ValueError(
+                    f"reset: key has {keys.shape[0]} worlds but n_objects has {n_arr.shape[0]}"
+                )
+        else:
+            raise ValueError(f"reset: key must have shape (2,) or (B, 2), got {key.shape}")
+        return self._reset_jit(keys, n_arr)
+
+    # ------------------------------------------------------------------ grasp
+
+    def _grasp_impl(self, state: SimState, position, yaw, start):
+        cfg, g = self.cfg, self.cfg.grasp
+        B, P = state.n_worlds, self.P
+        tz = cfg.workspace.table_z
+        x, y = position[:, 0], position[:, 1]
+        zg = jnp.maximum(position[:, 2], tz + g.min_height_above_table)
+        zpre = zg + g.approach_height
+        yaw_q = jnp.mod(yaw + jnp.pi / 2, jnp.pi) - jnp.pi / 2
+        d = state.data
+        z_before = d.qpos[:, self._obj_qidx[:, 2]]  # (B, P)
+        fo = jnp.full((B,), self.finger_open)
+        qpos = d.qpos.at[:, self._g_q].set(jnp.stack([x, y, zpre, yaw_q, fo, fo], axis=1))
+        qvel = d.qvel.at[:, self._g_v].set(0.0)
+        d = d.replace(qpos=qpos, qvel=qvel)
+        park_ctrl = self._park_ctrl(B)
+        g_park = jnp.asarray(self.scene.gripper_park_qpos)
+        n_main = self.schedule.shape[0]
+
+        def ctrl_fn(s):  # s = (descend, lift, close) fractions
+            z = zpre + (zg - zpre) * s[0] + g.lift_height * s[1]
+            f = self.finger_open + (FINGER_CLOSED_TARGET - self.finger_open) * s[2]
+            cols = jnp.stack([x, y, z, yaw_q, jnp.full((B,), f)], axis=1)
+            return jnp.zeros((B, self.nu)).at[:, self._g_act].set(cols)
+
+        def evaluate(d, active):
+            """After the lift: success (B,), object (B,), gap (B,), active without the grasped."""
+            pos = d.qpos[:, self._obj_qidx[:, :3]]  # (B, P, 3)
+            rise = pos[..., 2] - z_before
+            lifted = active & (rise > g.success_lift) & (pos[..., 2] > tz + g.success_lift)
+            gap = d.qpos[:, self._g_q[4]] + d.qpos[:, self._g_q[5]]
+            tcp = d.qpos[:, self._g_q[:3]]
+            dist = jnp.where(lifted, jnp.linalg.norm(pos - tcp[:, None], axis=-1), jnp.inf)
+            idx = jnp.argmin(dist, axis=1).astype(jnp.int32)
+            success = lifted.any(axis=1) & (gap > g.closed_gap)
+            grasped = success[:, None] & (jnp.arange(P)[None] == idx[:, None])
+            return success, jnp.where(success, idx, -1), gap, active & ~grasped
+
+        step = jax.vmap(mjx.step, in_axes=(None, 0))
+        sched = np.concatenate([self.schedule, np.zeros((self.n_post, 3), np.float32)])
+        xs = (jnp.arange(sched.shape[0]), jnp.asarray(sched))
+        res0 = (jnp.zeros((B,), bool), jnp.full((B,), -1, jnp.int32), jnp.zeros((B,)))
+
+        def body(carry, x):
+            d, active, ovf, res = carry
+            t, s = x
+            # At the first post-lift step: judge the grasp, park the gripper and the object.
+            is_eval = t == n_main
+            ev = evaluate(d, active)
+            res = jax.tree.map(lambda new, old: jnp.where(is_eval, new, old), ev[:3], res)
+            active = jnp.where(is_eval, ev[3], active)
+            d = d.replace(
+                qpos=jnp.where(is_eval, d.qpos.at[:, self._g_q].set(g_park), d.qpos),
+                qvel=jnp.where(is_eval, d.qvel.at[:, self._g_v].set(0.0), d.qvel),
+            )
+            ctrl = jnp.where(t >= n_main, park_ctrl, ctrl_fn(s))
+            pin_q, pin_v = self._pin_masks(active)
+            d = self._pin(step(self.mx, d.replace(ctrl=ctrl)), pin_q, pin_v)
+            return (d, active, ovf | self._overflow_now(d, B), res), None
+
+        carry = (d, state.active, state.overflow, res0)
+        (d, active, ovf, (success, obj, gap)), _ = jax.lax.scan(body, carry, xs)
+        state = self._housekeep(state.replace(data=d, active=active, overflow=ovf))
+
+        pre = jnp.stack([x, y, zpre], axis=1)
+        result = GraspResult(
+            success=success,
+            object=obj,
+            gripper_gap=gap,
+            approach=jnp.linalg.norm(pre - start, axis=1),
+            descend=zpre - zg,
+            lift=jnp.full((B,), g.lift_height, jnp.float32),
+        )
+        return state, result
+
+    def grasp_at(self, state: SimState, position, yaw, start=None):
+        """Top-down grasp in every world.
+
+        position: (B, 3) world grasp point (TCP = fingertip midpoint); yaw: (B,) closing-axis
+        angle (rad); start: optional (B, 3) hand position before the grasp (for ``approach``).
+        Returns (SimState, GraspResult).
+        """
+        B = state.n_worlds
+        position = jnp.asarray(position, jnp.float32)
+        yaw = jnp.asarray(yaw, jnp.float32)
+        if position.shape != (B, 3) or yaw.shape != (B,):
+            raise ValueError(
+                f"grasp_at: expected position (B, 3) and yaw (B,) with B = {B} worlds; got "
+                f"{position.shape} and {yaw.shape}"
+            )
+        if start is None:
+            start = jnp.broadcast_to(jnp.asarray(self.cfg.camera.global_position, jnp.float32), (B, 3))
+        return self._grasp_jit(state, position, yaw, jnp.asarray(start, jnp.float32))
+
+    # ------------------------------------------------------------------ helpers
+
+    def object_poses(self, state: SimState):
+        """-> (pos (B, P, 3), quat (B, P, 4) wxyz) of every pool body (parked ones included)."""
+        q = state.data.qpos[:, self._obj_qidx]
+        return q[..., :3], q[..., 3:]
+
+    def object_positions(self, state: SimState) -> jax.Array:
+        """(B, P, 3) body positions (bounding-box centres)."""
+        return state.data.qpos[:, self._obj_qidx[:, :3]]
+
+    def _park_objects_impl(self, state: SimState, mask) -> SimState:
+        active = state.active & ~mask
+        pin_q, pin_v = self._pin_masks(active)
+        d = self._kinematics(self._pin(state.data, pin_q, pin_v))
+        return state.replace(data=d, active=active)
+
+    def park_objects(self, state: SimState, mask) -> SimState:
+        """Remove objects: mask (B, P) bool -> deactivated and parked (poses re-evaluated)."""
+        return self._park_jit(state, jnp.asarray(mask, bool))
+
+    def _empty_impl(self, n_worlds: int) -> SimState:
+        B = n_worlds
+        qpos = jnp.broadcast_to(jnp.asarray(self._qpos0), (B, self.nq))
+        d = self._fresh_data(qpos, jnp.zeros((B, self.nv)), self._park_ctrl(B))
+        rgb = jnp.broadcast_to(jnp.asarray(self.scene.default_geom_rgb), (B,) + self.scene.default_geom_rgb.shape)
+        zeros = jnp.zeros((B,), bool)
+        return SimState(data=d, active=jnp.zeros((B, self.P), bool), geom_rgb=rgb,
+                        n_objects=jnp.zeros((B,), jnp.int32), error=zeros, overflow=zeros)
+
+    def empty(self, n_worlds: int) -> SimState:
+        """B = n_worlds worlds with every object and the gripper parked (for scripted scenes)."""
+        return self._empty_jit(int(n_worlds))
+
+    def _set_objects_impl(self, state, pos, quat, active):
+        qpos = state.data.qpos.at[:, self._obj_qidx].set(jnp.concatenate([pos, quat], axis=-1))
+        qvel = state.data.qvel.at[:, self._obj_vidx].set(0.0)
+        pin_q, pin_v = self._pin_masks(active)
+        d = self._kinematics(self._pin(state.data.replace(qpos=qpos, qvel=qvel), pin_q, pin_v))
+        return state.replace(data=d, active=active, n_objects=active.sum(axis=1).astype(jnp.int32))
+
+    def set_objects(self, state: SimState, pos, quat, active) -> SimState:
+        """Teleport objects (scripted scenes, label generation): pos (B, P, 3), quat (B, P, 4)
+        wxyz, active (B, P) bool; inactive ones are parked, velocities zeroed."""
+        return self._set_jit(state, jnp.asarray(pos, jnp.float32), jnp.asarray(quat, jnp.float32),
+                             jnp.asarray(active, bool))
+
+    def _settle_impl(self, state: SimState, n_steps: int) -> SimState:
+        B = state.n_worlds
+        park_ctrl = self._park_ctrl(B)
+        d, ovf = self._run(state.data, state.active, state.overflow, lambda _: park_ctrl, jnp.zeros((n_steps,)))
+        return self._housekeep(state.replace(data=d, overflow=ovf))
+
+    def settle(self, state: SimState, seconds: float) -> SimState:
+        """Simulate ``seconds`` with the gripper parked (static duration, compiled per value)."""
+        return self._settle_jit(state, int(round(seconds / self.cfg.sim.timestep)))
+
+    def take_worlds(self, state: SimState, idx) -> SimState:
+        """Select / repeat worlds: idx (B',) int -> SimState with B' worlds (velocities kept).
+
+        Data is rebuilt from qpos / qvel / ctrl (works for both impls; warm starts are lost).
+        """
+        return self._take_jit(state, jnp.asarray(idx, jnp.int32))
+
+    def _take_worlds_impl(self, state: SimState, idx) -> SimState:
+        d = state.data
+        nd = self._fresh_data(d.qpos[idx], d.qvel[idx], d.ctrl[idx])
+        return SimState(data=nd, active=state.active[idx], geom_rgb=state.geom_rgb[idx],
+                        n_objects=state.n_objects[idx], error=state.error[idx],
+                        overflow=state.overflow[idx])
+
+    # Pure, un-validated batched entry points for use inside the caller's own jit:
+    # reset_batched(keys (B, 2), n_objects (B,) int32) -> SimState;
+    # grasp_batched(state, position (B, 3), yaw (B,), start (B, 3)) -> (SimState, GraspResult).
+    def reset_batched(self, keys, n_objects) -> SimState:
+        return self._reset_jit(keys, n_objects)
+
+    def grasp_batched(self, state: SimState, position, yaw, start):
+        return self._grasp_jit(state, position, yaw, start)
+
+    check_overflow = staticmethod(check_overflow)
