@@ -125,6 +125,33 @@ def _open_step(run_dir: str, step: Optional[int]):
     return mngr, step
 
 
+def _check_fits(run_dir: str, step: int, want: dict) -> None:
+    """Compares the wanted {part: {leaf: ShapeDtypeStruct}} with the checkpoint's metadata, so a
+    checkpoint of another config is refused before orbax starts reading (a failed orbax read
+    leaves coroutines behind that spam the interpreter's exit)."""
+    path = os.path.abspath(os.path.join(run_dir, CHECKPOINT_DIR))
+    mngr = ocp.CheckpointManager(path, item_handlers=ocp.StandardCheckpointHandler())
+    try:
+        saved = getattr(mngr.item_metadata(step), "tree", None)
+    finally:
+        mngr.close()
+    if not isinstance(saved, dict):
+        return  # no metadata to compare with: orbax will check
+    for name, leaves in want.items():
+        if name not in saved:
+            raise _mismatch(run_dir, step, f"it has no part {name!r} (parts: {sorted(saved)})")
+        got = saved[name]
+        for k, v in leaves.items():
+            g = got.get(k)
+            if g is None or tuple(g.shape) != tuple(v.shape) or np.dtype(g.dtype) != np.dtype(v.dtype):
+                found = "nothing" if g is None else f"{tuple(g.shape)} {g.dtype}"
+                raise _mismatch(run_dir, step, f"{name} leaf {k}: saved {found}, this run needs "
+                                               f"{tuple(v.shape)} {np.dtype(v.dtype)}")
+        extra = sorted(set(got) - set(leaves))
+        if extra:
+            raise _mismatch(run_dir, step, f"{name} has {len(extra)} more leaves than this run's state")
+
+
 def _mismatch(run_dir, step, e) -> CheckpointError:
     return CheckpointError(
         f"checkpoint {step} in {run_dir} does not fit this run's state: it was written with a "
@@ -142,6 +169,11 @@ def restore(run_dir: str, target: Any, step: Optional[int] = None) -> tuple[Any,
     parts = _parts(target)
     abstract = {name: jax.tree.map(ocp.utils.to_shape_dtype_struct, _flatten(p)) for name, p in parts.items()}
     try:
+        _check_fits(run_dir, step, abstract)
+    except CheckpointError:
+        mngr.close()
+        raise
+    try:
         flat = mngr.restore(step, args=ocp.args.StandardRestore(abstract))
     except (ValueError, KeyError, TypeError) as e:
         raise _mismatch(run_dir, step, e) from e
@@ -157,6 +189,11 @@ def restore_part(run_dir: str, name: str, target: Any, step: Optional[int] = Non
     """Restores only the top-level part ``name`` (e.g. "learner") into ``target``'s structure."""
     mngr, step = _open_step(run_dir, step)
     want = {name: jax.tree.map(ocp.utils.to_shape_dtype_struct, _flatten(target))}
+    try:
+        _check_fits(run_dir, step, want)
+    except CheckpointError:
+        mngr.close()
+        raise
     try:
         flat = mngr.restore(step, args=ocp.args.PyTreeRestore(
             item=want, restore_args=jax.tree.map(lambda _: ocp.RestoreArgs(restore_type=np.ndarray), want),
