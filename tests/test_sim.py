@@ -13,16 +13,14 @@ from vags_jax.config import Config, replace
 from vags_jax.scene import FINGER_CLOSED_TARGET, build_scene
 from vags_jax.sim import GraspResult, SimState, Simulator, check_overflow
 
+from grasp_scenarios import CUBE, LONG, scenarios, tiny_config
+
 N_CUBE, N_EMPTY, N_LONG = 40, 8, 8
-CUBE, LONG = 0, 1  # pool indices (shapes = ("cube", "cuboid_long"), one copy each)
 
 
 @pytest.fixture(scope="module")
 def cfg():
-    return replace(Config(), **{
-        "scene.shapes": ("cube", "cuboid_long"), "scene.copies_per_shape": 1,
-        "scene.max_objects": 2, "stage1.max_objects": 2,
-    })
+    return tiny_config()
 
 
 @pytest.fixture(scope="module")
@@ -41,49 +39,15 @@ def reset_state(sim):
     return n, sim.reset(jax.random.PRNGKey(0), n)
 
 
-def _yaw_quat(theta):
-    """(B,) -> (B, 4) wxyz rotation about z."""
-    return jnp.stack([jnp.cos(theta / 2), 0 * theta, 0 * theta, jnp.sin(theta / 2)], axis=-1)
-
-
 @pytest.fixture(scope="module")
 def grasp_batch(sim, cfg):
     """56 worlds: 40 isolated cubes grasped correctly, 8 empty spots, 8 long cuboids grasped
     with the closing axis along their 10 cm length.  One jitted grasp call."""
-    B = N_CUBE + N_EMPTY + N_LONG
-    P = sim.P
-    rng = np.random.default_rng(0)
-    xy = rng.uniform(-0.17, 0.17, (B, 2))
-    theta = rng.uniform(-np.pi, np.pi, B)
-    pos = np.zeros((B, P, 3))
-    quat = np.tile([1.0, 0, 0, 0], (B, P, 1))
-    active = np.zeros((B, P), bool)
-    grasp_xy = xy.copy()
-    grasp_yaw = theta.copy()
-    # cubes: any face-normal yaw is correct
-    c = slice(0, N_CUBE)
-    pos[c, CUBE, :2], pos[c, CUBE, 2] = xy[c], 0.025
-    quat[c, CUBE] = _yaw_quat(theta[c])
-    active[c, CUBE] = True
-    grasp_yaw[c] = theta[c] + rng.integers(0, 4, N_CUBE) * np.pi / 2
-    # empty spots: half with a cube far away, half with nothing
-    e = slice(N_CUBE, N_CUBE + N_EMPTY)
-    grasp_xy[e] = rng.uniform(0.05, 0.17, (N_EMPTY, 2))
-    pos[e, CUBE, :2], pos[e, CUBE, 2] = -grasp_xy[e], 0.025
-    active[N_CUBE: N_CUBE + N_EMPTY // 2, CUBE] = True
-    # long cuboid (long axis = body x), closing axis along it: wrong by 90 degrees
-    lg = slice(N_CUBE + N_EMPTY, B)
-    pos[lg, LONG, :2], pos[lg, LONG, 2] = xy[lg], 0.025
-    quat[lg, LONG] = _yaw_quat(theta[lg])
-    active[lg, LONG] = True
-
-    state = sim.set_objects(sim.empty(B), pos, quat, active)
-    z = np.where(active.any(1), 0.05 - cfg.grasp.depth_below_surface, -0.03)  # surface - 3 cm
-    position = np.concatenate([grasp_xy, z[:, None]], axis=1)
-    new_state, res = sim.grasp_at(state, position, grasp_yaw)
+    sc = scenarios(N_CUBE, N_EMPTY, N_LONG, sim.P, cfg)
+    state = sim.set_objects(sim.empty(sc["pos"].shape[0]), sc["pos"], sc["quat"], sc["active"])
+    new_state, res = sim.grasp_at(state, sc["position"], sc["yaw"])
     jax.block_until_ready(res.success)
-    return dict(state=state, new_state=new_state, res=res, position=position, yaw=grasp_yaw,
-                pos=pos, quat=quat, active=active)
+    return dict(state=state, new_state=new_state, res=res, **sc)
 
 
 # ----------------------------------------------------------------------------- grasping

@@ -112,7 +112,7 @@ class Sim:
     impl: str = "jax"
     timestep: float = 0.002
     iterations: int = 20
-    ls_iterations: int = 10
+    ls_iterations: int = 20  # 10 blew up dropped blocks in MuJoCo C (elliptic cones, impratio 10)
     impratio: float = 10.0
     # Contact / constraint buffers.  None -> sized from the scene (see sim.py).
     naconmax: Optional[int] = None  # warp: contacts across all worlds
@@ -194,6 +194,7 @@ class Camera:
     viewpoint_height: float = 0.25  # m above the surface height at the chosen pixel
     noise: DepthNoise = field(default_factory=DepthNoise)
     renderer: str = "jax"  # "jax": pure-JAX ray caster (any device) | "warp": MJX Warp renderer (GPU)
+    render_batch: int = 256  # worlds rendered + projected together (bounds memory; jax renderer)
 
     def __post_init__(self):
         _check(
@@ -203,6 +204,7 @@ class Camera:
         _check(self.fx > 0 and self.fy > 0, "Camera.fx and Camera.fy must be > 0")
         _check(0 < self.near < self.far, "Camera needs 0 < near < far")
         _check(self.renderer in ("jax", "warp"), f"Camera.renderer must be 'jax' or 'warp', got {self.renderer!r}")
+        _check(self.render_batch >= 1, f"Camera.render_batch must be >= 1, got {self.render_batch}")
 
     @property
     def principal_point(self) -> tuple[float, float]:
@@ -429,15 +431,16 @@ def tiny() -> Config:
 
 
 def gpu() -> Config:
-    """One H100/H200: thousands of grasp attempts per second, fast trunk in bf16."""
+    """One H100/H200, impl "warp": the settings of the stage-1 run in bench/RESULTS.md
+    (512 worlds, small trunk in bf16, 16 updates of batch 64 per iteration)."""
     return Config(
         sim=Sim(impl="warp"),
         net=Net(trunk="small", small_width=32, dtype="bfloat16"),
         dqn=DQN(batch_size=64, optimizer="adam", learning_rate=5e-4, target_update_period=50),
-        replay=Replay(capacity=20_000),
-        exploration=Exploration(eps_decay=0.995),
-        stage1=Stage(n_worlds=256, iterations=400, min_objects=1, max_objects=5,
-                     updates_per_iteration=4, learning_starts=512),
+        replay=Replay(capacity=16_384),
+        exploration=Exploration(eps_decay=0.97),
+        stage1=Stage(n_worlds=512, iterations=2000, min_objects=1, max_objects=5,
+                     updates_per_iteration=16, learning_starts=1024),
     )
 
 

@@ -115,15 +115,32 @@ class VagsEnv:
         ``key`` is needed only when the config's depth noise is enabled.
         """
         cfg = self.cfg
+        B = sim_state.n_worlds
         d = sim_state.data
-        out = render.render_full(self.geometry(sim_state.n_worlds), d.geom_xpos, d.geom_xmat,
-                                 sim_state.geom_rgb, cam_pose, cfg.camera)
-        depth = out.depth
-        if cfg.camera.noise.enabled:
-            if key is None:
-                raise ValueError("camera.noise.enabled needs a PRNG key in observe()")
-            depth = render.add_depth_noise(key, depth, out.cos_incidence, cfg.camera.noise)
-        return heightmap.heightmaps(depth, out.rgb, cam_pose, cfg.camera, cfg.workspace)
+        geometry = self.geometry(B)
+        if cfg.camera.noise.enabled and key is None:
+            raise ValueError("camera.noise.enabled needs a PRNG key in observe()")
+        keys = jax.random.split(key if key is not None else jax.random.PRNGKey(0), B)
+
+        def one_batch(xpos, xmat, rgb, pose, k):
+            out = render.render_full(geometry, xpos, xmat, rgb, pose, cfg.camera)
+            depth = out.depth
+            if cfg.camera.noise.enabled:
+                depth = jax.vmap(lambda kk, dd, cc: render.add_depth_noise(kk, dd[None], cc[None], cfg.camera.noise)[0])(
+                    k, depth, out.cos_incidence)
+            return heightmap.heightmaps(depth, out.rgb, pose, cfg.camera, cfg.workspace)
+
+        args = (d.geom_xpos, d.geom_xmat, sim_state.geom_rgb, cam_pose, keys)
+        chunk = cfg.camera.render_batch
+        if cfg.camera.renderer == "warp" or B <= chunk:
+            return one_batch(*args)
+        # Render groups of `chunk` worlds one after the other: memory stays that of one group.
+        n = -(-B // chunk)
+        pad = n * chunk - B
+        grouped = [jnp.concatenate([a, jnp.repeat(a[-1:], pad, 0)]) if pad else a for a in args]
+        grouped = [a.reshape((n, chunk) + a.shape[1:]) for a in grouped]
+        color, height = jax.lax.map(lambda xs: one_batch(*xs), tuple(grouped))
+        return color.reshape((n * chunk,) + color.shape[2:])[:B], height.reshape((n * chunk,) + height.shape[2:])[:B]
 
     def observe_global(self, sim_state: SimState, key: Optional[jax.Array] = None):
         pose = jnp.broadcast_to(jnp.asarray(self.global_pose), (sim_state.n_worlds, 4, 4))

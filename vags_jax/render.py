@@ -542,8 +542,9 @@ class WarpGeometry:
             use_textures=False,
             use_shadows=False,
         )
-        d = mjx.make_data(m, impl="warp")
-        d = jax.tree.map(lambda x: jnp.broadcast_to(x, (n_worlds,) + x.shape), d)
+        # Batched warp Data must come from a vmapped make_data: MJX's warp FFI knows which
+        # fields are per world, and a plain broadcast of every leaf is rejected.
+        d = jax.jit(jax.vmap(lambda _: mjx.make_data(m, impl="warp")))(jnp.arange(n_worlds))
         return WarpGeometry(mx, ctx, d, cid, n_worlds, int(m.ngeom))
 
     def render(self, geom_xpos, geom_xmat, geom_rgb, cam_pose, cam_cfg: Camera) -> RenderOutput:

@@ -287,6 +287,10 @@ def build_spec(cfg: Config) -> mujoco.MjSpec:
     num.name = "max_contact_points"
     num.data = [float(contacts_per_world(cfg))]
 
+    # The eye-in-hand camera for MJX's Warp renderer (vags_jax.render, backend "warp"): its pose
+    # is overwritten per world at render time; physics does not see it.
+    spec.worldbody.add_camera(name="vags_cam", pos=list(cfg.camera.global_position))
+
     # Object pool.
     copies = cfg.scene.copies_per_shape
     for s_idx, name in enumerate(cfg.scene.shapes):

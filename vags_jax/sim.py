@@ -82,6 +82,11 @@ from mujoco import mjx
 from vags_jax.config import Config
 from vags_jax.scene import FINGER_CLOSED_TARGET, SceneModel, contacts_per_world
 
+# mujoco_warp OverflowType bits that mean a buffer was too small (data were dropped):
+# NEFC, NJMAX_NNZ, BROADPHASE, NARROWPHASE, CCD, EPA_HORIZON.  Solver / line-search iteration
+# limits (bits 9, 10) are convergence warnings, not dropped data.
+WARP_BUFFER_OVERFLOW_BITS = (1 << 0) | (1 << 1) | (1 << 2) | (1 << 3) | (1 << 4) | (1 << 8)
+
 # Thresholds for housekeeping.
 BELOW_TABLE = 0.02  # m; an object whose centre is this far below the table top fell through
 SPAWN_GAP = 0.005  # m between bounding spheres of stacked spawn poses
@@ -185,6 +190,11 @@ class Simulator:
         if self.impl == "warp":
             _require_warp()
         self.mx = mjx.put_model(m, impl=self.impl)
+        if self.impl == "warp":
+            # MuJoCo Warp prints from its kernels on every step that hits a limit; we read the
+            # same per-world flags (d._impl.overflow) and report them ourselves instead.
+            opt = self.mx.opt
+            self.mx = self.mx.replace(opt=opt.replace(_impl=opt._impl.replace(warn_overflow=0)))  # noqa: SLF001
         self.P, self.N = scene.pool_size, cfg.scene.max_objects
         self.nq, self.nv, self.nu = m.nq, m.nv, m.nu
         self._obj_qidx = scene.object_qpos_adr[:, None] + np.arange(7)  # (P, 7)
@@ -261,7 +271,11 @@ class Simulator:
         impl = d._impl  # noqa: SLF001
         nacon = jnp.max(jnp.asarray(impl.nacon))
         nefc = jnp.asarray(impl.nefc).reshape(B, -1).max(axis=1)
-        return (nacon >= impl.naconmax) | (nefc >= impl.njmax)
+        full = (nacon >= impl.naconmax) | (nefc >= impl.njmax)
+        # MuJoCo Warp's own per-world bitmask: constraint rows, broadphase, narrowphase /
+        # contact, CCD and EPA buffers that were too small on this step.
+        flags = jnp.asarray(impl.overflow).reshape(B, -1).max(axis=1)
+        return full | ((flags & WARP_BUFFER_OVERFLOW_BITS) != 0)
 
     # ------------------------------------------------------------------ low-level pieces
 

@@ -1,0 +1,67 @@
+"""VagsEnv: input validation of the public API, and world-chunked rendering."""
+import jax
+import numpy as np
+import pytest
+
+from vags_jax import config as C
+from vags_jax.env import VagsEnv, where_worlds
+
+
+@pytest.fixture(scope="module")
+def env(tiny_cfg):
+    return VagsEnv(tiny_cfg)
+
+
+@pytest.fixture(scope="module")
+def state(env):
+    return env.reset(jax.random.PRNGKey(1), np.array([1, 2]))
+
+
+def test_reset_puts_objects_in_the_heightmap(env, state):
+    assert np.asarray(env.n_remaining(state)).tolist() == [1, 2]
+    h = np.asarray(state.height)
+    assert h.shape == (2, 32, 32) and (h.max(axis=(1, 2)) > 0.02).all()
+    assert state.color.dtype == np.uint8 and state.color.shape == (2, 32, 32, 3)
+
+
+@pytest.mark.parametrize("n", [[0, 1], [1, 4], [1.5, 1], [[1, 1]]])
+def test_reset_rejects_bad_object_counts(env, n):
+    with pytest.raises(ValueError, match=r"1\.\.3"):
+        env.reset(jax.random.PRNGKey(0), np.array(n))
+
+
+@pytest.mark.parametrize("pixel, rotation, match", [
+    ([[0, 0], [0, 32]], [0, 0], r"0\.\.31"),
+    ([[-1, 0], [0, 0]], [0, 0], r"0\.\.31"),
+    ([[0, 0]], [0, 0], r"\(2, 2\)"),
+    ([[0.5, 0], [0, 0]], [0, 0], "integer"),
+    ([[0, 0], [0, 0]], [0, 16], r"0\.\.15"),
+    ([[0, 0], [0, 0]], [-1, 0], r"0\.\.15"),
+    ([[0, 0], [0, 0]], [0], r"\(2,\)"),
+])
+def test_grasp_rejects_bad_actions(env, state, pixel, rotation, match):
+    with pytest.raises(ValueError, match=match):
+        env.grasp(state, np.array(pixel), np.array(rotation))
+
+
+def test_grasp_at_rejects_bad_shapes(env, state):
+    with pytest.raises(ValueError, match=r"\(2, 3\)"):
+        env.grasp_at(state, np.zeros((2, 2)), np.zeros(2))
+
+
+def test_rendering_in_world_chunks_is_identical(tiny_cfg, env, state):
+    chunked = VagsEnv(C.replace(tiny_cfg, **{"camera.render_batch": 1}))
+    color, height = jax.jit(chunked.observe_global)(state.sim)
+    ref_color, ref_height = jax.jit(env.observe_global)(state.sim)
+    np.testing.assert_array_equal(np.asarray(height), np.asarray(ref_height))
+    np.testing.assert_array_equal(np.asarray(color), np.asarray(ref_color))
+    np.testing.assert_array_equal(np.asarray(height), np.asarray(state.height))
+
+
+def test_where_worlds_keeps_shared_leaves():
+    mask = np.array([True, False, True])
+    a = {"w": np.ones((3, 2)), "shared": np.full((5,), 7.0), "empty": np.zeros((0,))}
+    b = {"w": np.zeros((3, 2)), "shared": np.full((5,), 1.0), "empty": np.zeros((0,))}
+    out = where_worlds(mask, a, b)
+    np.testing.assert_array_equal(np.asarray(out["w"])[:, 0], [1.0, 0.0, 1.0])
+    np.testing.assert_array_equal(np.asarray(out["shared"]), b["shared"])
