@@ -43,7 +43,6 @@ class Workspace:
     size: float = 0.448  # metres, side of the square
     heightmap_px: int = 224  # cells per side -> 2 mm/px at the defaults
     table_z: float = 0.0  # height of the table top in the world frame
-    object_height_threshold: float = 0.01  # m; a cell "contains an object" above this
 
     def __post_init__(self):
         _check(self.size > 0, f"Workspace.size must be > 0 metres, got {self.size}")
@@ -276,7 +275,7 @@ class Exploration:
     eps_start: float = 0.5
     eps_end: float = 0.1
     eps_decay: float = 0.9998  # per grasp attempt (per world), as in VPG
-    height_threshold: float = 0.01  # m; pixels above this contain objects
+    height_threshold: float = 0.01  # m; a heightmap cell above this contains an object (DAES, eval)
 
     def __post_init__(self):
         _check(0.0 <= self.eps_end <= self.eps_start <= 1.0,

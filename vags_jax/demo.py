@@ -128,11 +128,11 @@ def main(argv=None) -> int:
     images.save_png(os.path.join(args.out, "heightmap_color.png"),
                     images.tile([_hm_picture(c, scale) for c in col], cols=B))
     hmax = max(float(hgt.max()), 0.02)
-    thr = cfg.workspace.object_height_threshold
+    thr = cfg.exploration.height_threshold
     images.save_png(os.path.join(args.out, "heightmap_height.png"),
                     images.tile([_hm_picture(_height_colours(h, hmax, thr), scale) for h in hgt], cols=B))
     _say(f"[{time.time() - t0:5.1f} s] global view rendered: heights up to {100 * hgt.max():.1f} cm, "
-          f"object cells per world {(hgt > cfg.workspace.object_height_threshold).sum(axis=(1, 2)).tolist()}")
+          f"object cells per world {(hgt > cfg.exploration.height_threshold).sum(axis=(1, 2)).tolist()}")
 
     # ---- viewpoint above each world's highest point (what VANet's action does)
     highest = jax.jit(highest_act(cfg))

@@ -13,7 +13,7 @@ Policies (``make_policy``) map ``(params, key, EnvState) -> action (B, 3) int32
 
 * ``gdnet``: greedy argmax of GDNet's Q over (rotation, row, col) -- no exploration.  Its
   ``params`` are the online ``{"params", "batch_stats"}`` of a stage-1 checkpoint.
-* ``random``: a uniformly random object pixel (height > ``workspace.object_height_threshold``;
+* ``random``: a uniformly random object pixel (height > ``exploration.height_threshold``;
   any pixel when none) and a uniformly random rotation.  Sanity floor.
 * ``highest``: the highest point of the height map (box-smoothed over ~3 cm so that the middle
   of a flat top beats its edges and single tall pixels), rotation 0.  The simplest scripted grasp.
@@ -219,9 +219,9 @@ def _highest_pixel(height: jax.Array, cfg: Config) -> jax.Array:
     most object around it (window ~6 cm, worth at most 1 mm of height): the middle of the top."""
     px = cfg.workspace.pixel_size
     size = max(3, int(round(0.03 / px))) | 1  # odd
-    obj = height > cfg.workspace.object_height_threshold
+    obj = height > cfg.exploration.height_threshold
     score = _smooth(height, size) + 1e-3 * _smooth(obj.astype(jnp.float32), 2 * size + 1)
-    score = jnp.where(_object_mask(height, cfg.workspace.object_height_threshold), score, -jnp.inf)
+    score = jnp.where(_object_mask(height, cfg.exploration.height_threshold), score, -jnp.inf)
     b, h, w = height.shape
     flat = jnp.argmax(score.reshape(b, -1), axis=1)
     return jnp.stack(jnp.unravel_index(flat, (h, w)), axis=-1).astype(jnp.int32)
@@ -229,7 +229,7 @@ def _highest_pixel(height: jax.Array, cfg: Config) -> jax.Array:
 
 def random_act(cfg: Config) -> Callable:
     """Uniform object pixel (any pixel when the map is empty) + uniform rotation."""
-    thr, R = cfg.workspace.object_height_threshold, cfg.grasp.n_rotations
+    thr, R = cfg.exploration.height_threshold, cfg.grasp.n_rotations
 
     def act(params, key, state: EnvState):
         del params
@@ -267,7 +267,7 @@ def min_width_grasp(height: jax.Array, cfg: Config):
     centre = _highest_pixel(height, cfg)  # (B, 2)
     bi = jnp.arange(b)
     surface = height[bi, centre[:, 0], centre[:, 1]]
-    level = jnp.maximum(surface - g.depth_below_surface, ws.object_height_threshold)  # (B,)
+    level = jnp.maximum(surface - g.depth_below_surface, cfg.exploration.height_threshold)  # (B,)
 
     n_axes = max(1, g.n_rotations // 2)
     theta = jnp.arange(n_axes, dtype=jnp.float32) * g.rotation_step  # (A,)
@@ -432,7 +432,7 @@ class Evaluator:
                                 jnp.maximum(position[:, 2], tz + g.min_height_above_table) + g.lift_height], 1)
             back = jnp.linalg.norm(lifted - self._start, axis=1)
             ret = c.return_travel + jnp.where(keep | res.success, 0.0, back)
-            aimed = c.env.height[jnp.arange(B), pixel[:, 0], pixel[:, 1]] > cfg.workspace.object_height_threshold
+            aimed = c.env.height[jnp.arange(B), pixel[:, 0], pixel[:, 1]] > cfg.exploration.height_threshold
             on_obj = c.on_object + (aimed & ~keep).astype(jnp.int32)
             done = keep | env.round_over(s2) | s2.sim.error
             return _Carry(env=s2, done=done, return_travel=ret, on_object=on_obj, key=key, t=c.t + 1)
