@@ -74,14 +74,10 @@ class VagsEnv:
     # ------------------------------------------------------------------ helpers
 
     def prepare(self, n_worlds: int) -> None:
-        """Build what is cached per batch size (render geometry, physics data template) eagerly.
-
-        Call it before tracing a function that uses the ``step_*`` methods for ``n_worlds``
-        worlds (the public methods and ``stages`` do).
-        """
+        """Build the render geometry for ``n_worlds`` eagerly (the Warp renderer's context is
+        per batch size).  Call it before tracing a function that uses the ``step_*`` methods
+        (the public methods and ``stages`` do)."""
         self.geometry(n_worlds)
-        with jax.ensure_compile_time_eval():
-            self.sim._template(n_worlds)  # noqa: SLF001
 
     def geometry(self, n_worlds: int):
         """Static render geometry (the Warp renderer's context is per batch size)."""
@@ -153,7 +149,7 @@ class VagsEnv:
         """
         k_sim, k_obs = jax.random.split(key)
         B = n_objects.shape[0]
-        sim_state = self.sim._reset_impl(jax.random.split(k_sim, B), n_objects)
+        sim_state = self.sim.reset_batched(jax.random.split(k_sim, B), n_objects)
         H = self.cfg.workspace.heightmap_px
         if observe:
             color, height = self.observe_global(sim_state, k_obs)
@@ -195,7 +191,7 @@ class VagsEnv:
         """Grasp at world position (B, 3) / yaw (B,), then (``observe``) re-observe the global view."""
         B = state.n_worlds
         start = jnp.broadcast_to(jnp.asarray(self.cfg.camera.global_position, jnp.float32), (B, 3))
-        sim_state, result = self.sim._grasp_impl(state.sim, position, yaw, start)
+        sim_state, result = self.sim.grasp_batched(state.sim, position, yaw, start)
         state = state.replace(sim=sim_state)
         if observe:
             state = self.with_observation(state, key)
