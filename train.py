@@ -126,7 +126,7 @@ def main(argv=None) -> int:
                                 float(np.mean(m["explored"]))), end="", file=sys.stderr, flush=True)
         out_of_time = args.max_minutes is not None and time.time() - t0 > 60 * args.max_minutes
         if n_chunks % args.checkpoint_every == 0 or it >= total or out_of_time:
-            checkpoint.save(args.out, it, stage.checkpointable(state))
+            checkpoint.save(args.out, it, state)
         if out_of_time:
             print(f"\nstopped after {args.max_minutes} min at iteration {it}; --resume continues",
                   file=sys.stderr)

@@ -16,18 +16,18 @@ jax.config.update("jax_compilation_cache_dir", _cache)
 jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
 
 
+# The `tiny` preset, shrunk further for tests: 2 worlds, 1-2 objects, small replay.
+TINY_TEST_OVERRIDES = {
+    "stage1.n_worlds": 2,
+    "stage1.max_objects": 2,
+    "stage1.learning_starts": 2,
+    "dqn.batch_size": 4,
+    "replay.capacity": 64,
+}
+
+
 @pytest.fixture(scope="session")
 def tiny_cfg():
-    """The `tiny` preset, shrunk further for tests: 2 worlds, 1-2 objects, short rounds."""
     from vags_jax import config as C
 
-    return C.replace(
-        C.tiny(),
-        **{
-            "stage1.n_worlds": 2,
-            "stage1.max_objects": 2,
-            "stage1.learning_starts": 2,
-            "dqn.batch_size": 4,
-            "replay.capacity": 64,
-        },
-    )
+    return C.replace(C.tiny(), **TINY_TEST_OVERRIDES)

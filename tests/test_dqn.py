@@ -191,3 +191,49 @@ def test_update_step_vanet_double_q_matches_manual_td():
     np.testing.assert_allclose(metrics["target_mean"], y.mean(), rtol=1e-5)
     assert int(new_ts.step) == 1 and not bool(metrics["target_synced"])
     assert not _allclose_tree(new_ts.params, ts.params)
+
+
+# ----------------------------------------------------------------------------- executed rotation only
+
+
+def _rotation_net(variables, color, height, train, mutable=False, rotations=None):
+    """BatchNorm-free stand-in for GDNet: q[b, r] = w[r] * height[b] + c[r] * mean colour[b].
+
+    With ``rotations`` (b, K) it returns only those rotations, (b, K, H, W), like GDNet.
+    """
+    p = variables["params"]
+    grey = color.astype(jnp.float32).mean(-1) / 255.0  # (b, H, W)
+    w, c = p["w"], p["c"]  # (R,)
+    if rotations is None:
+        q = w[None, :, None, None] * height[:, None] + c[None, :, None, None] * grey[:, None]
+    else:
+        q = w[rotations][..., None, None] * height[:, None] + c[rotations][..., None, None] * grey[:, None]
+    return (q, {"batch_stats": {}}) if mutable else q
+
+
+@pytest.mark.parametrize("symmetric", [False, True])
+def test_executed_rotation_only_matches_full_evaluation(symmetric):
+    rng = np.random.default_rng(0)
+    b = 5
+    batch = replay.GraspTransition(
+        color=jnp.asarray(rng.integers(0, 256, (b, H, W, 3)), jnp.uint8),
+        height=jnp.asarray(rng.uniform(0, 0.1, (b, H, W)), jnp.float16),
+        action=jnp.asarray(np.stack([rng.integers(0, R, b), rng.integers(0, H, b), rng.integers(0, W, b)], 1), jnp.int32),
+        reward=jnp.asarray(rng.integers(0, 2, b), jnp.float32),
+        next_color=jnp.asarray(rng.integers(0, 256, (b, H, W, 3)), jnp.uint8),
+        next_height=jnp.asarray(rng.uniform(0, 0.1, (b, H, W)), jnp.float16),
+        done=jnp.asarray([False, True, False, False, True]),
+    )
+    weights = jnp.asarray(rng.uniform(0.2, 1.0, b), jnp.float32)
+    variables = {"params": {"w": jnp.asarray(rng.normal(size=R), jnp.float32),
+                            "c": jnp.asarray(rng.normal(size=R), jnp.float32)}, "batch_stats": {}}
+    cfg = DQN(optimizer="sgd", learning_rate=0.1, symmetric_grasp_label=symmetric)
+    ts = dqn.create_train_state(variables, cfg)
+    full = jax.jit(dqn.make_update_step(_rotation_net, cfg))(ts, batch, weights)
+    sub = jax.jit(dqn.make_update_step(_rotation_net, cfg, executed_rotation_only=True))(ts, batch, weights)
+    np.testing.assert_allclose(sub[1]["loss"], full[1]["loss"], rtol=1e-6)
+    np.testing.assert_allclose(sub[2], full[2], rtol=1e-6)  # td errors
+    np.testing.assert_allclose(sub[1]["q_taken_mean"], full[1]["q_taken_mean"], rtol=1e-6)
+    for k in ("w", "c"):
+        np.testing.assert_allclose(sub[0].params[k], full[0].params[k], rtol=1e-6, atol=1e-7)
+    assert not np.allclose(full[0].params["w"], variables["params"]["w"])  # the update did move

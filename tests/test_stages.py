@@ -10,10 +10,12 @@ import train
 from vags_jax import checkpoint, replay
 from vags_jax.stages import METRICS, Stage1
 
+from conftest import TINY_TEST_OVERRIDES
 
-def _overrides(cfg, iterations):
-    return ["stage1.n_worlds=2", "stage1.max_objects=2", "stage1.learning_starts=2",
-            "dqn.batch_size=4", "replay.capacity=64", f"stage1.iterations={iterations}"]
+
+def _overrides(iterations):
+    """train.py --set arguments giving the tiny_cfg fixture's config with `iterations`."""
+    return [f"{k}={v}" for k, v in TINY_TEST_OVERRIDES.items()] + [f"stage1.iterations={iterations}"]
 
 
 def _metrics(path):
@@ -25,13 +27,13 @@ def _metrics(path):
 
 
 @pytest.fixture(scope="module")
-def runs(tmp_path_factory, tiny_cfg):
+def runs(tmp_path_factory):
     """One uninterrupted 4-iteration run, and a 2-iteration run resumed to 4 iterations."""
     root = tmp_path_factory.mktemp("runs")
     full, split = str(root / "full"), str(root / "split")
     base = ["--config", "tiny", "--chunk", "2", "--quiet"]
-    assert train.main(base + ["--out", full, "--set"] + _overrides(tiny_cfg, 4)) == 0
-    assert train.main(base + ["--out", split, "--set"] + _overrides(tiny_cfg, 2)) == 0
+    assert train.main(base + ["--out", full, "--set"] + _overrides(4)) == 0
+    assert train.main(base + ["--out", split, "--set"] + _overrides(2)) == 0
     assert train.main(["--out", split, "--resume", "--chunk", "2", "--quiet", "--set", "stage1.iterations=4"]) == 0
     return full, split
 

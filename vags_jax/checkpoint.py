@@ -99,15 +99,6 @@ def save(run_dir: str, step: int, state: Any) -> None:
     mngr.close()
 
 
-def latest_step(run_dir: str) -> Optional[int]:
-    if not os.path.isdir(os.path.join(run_dir, CHECKPOINT_DIR)):
-        return None
-    mngr = _manager(run_dir)
-    step = mngr.latest_step()
-    mngr.close()
-    return step
-
-
 def _open_step(run_dir: str, step: Optional[int]):
     if not os.path.isdir(run_dir):
         raise CheckpointError(f"run directory {run_dir!r} does not exist")

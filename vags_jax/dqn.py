@@ -140,9 +140,11 @@ def make_update_step(apply_fn: Callable, cfg: DQN, executed_rotation_only: bool 
 
     ``executed_rotation_only`` (GDNet): the online network is evaluated only at each sample's
     executed rotation (and its mirror with ``cfg.symmetric_grasp_label``) through
-    ``apply_fn(..., rotations=(b, K))``; the loss and gradients are the same as with the full
-    (b, R, H, W) evaluation, at 1/R (or 2/R) of its cost.  The target still takes the max over
-    every rotation of the next state.
+    ``apply_fn(..., rotations=(b, K))``, at 1/R (or 2/R) of the full (b, R, H, W) cost.  For a
+    network without batch statistics the loss and gradients are exactly those of the full
+    evaluation; with BatchNorm in train mode the statistics come from the b executed rotations
+    instead of all b * R rotated images (VPG likewise back-propagates the executed rotation
+    only).  The target still takes the max over every rotation of the next state.
 
     ``batch`` is a sampled transition pytree with fields color (b,H,W,3) uint8, height
     (b,H,W) (float16/bfloat16/float32), action (b,3) or (b,2) int32, reward (b,), next_color,

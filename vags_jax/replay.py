@@ -158,16 +158,13 @@ def add(state: ReplayState, transitions: PyTree) -> ReplayState:
     )
 
 
-def can_sample(state: ReplayState, min_size: int = 1) -> jax.Array:
-    """() bool: at least ``min_size`` valid items.  Sampling an empty buffer returns slot 0
-    (zeros) with NaN weights: gate updates on this (e.g. ``lax.cond``) or on a step count."""
-    return state.size >= min_size
-
-
 def sample(state: ReplayState, key: jax.Array, batch_size: int, alpha: float, beta: float):
     """Draw ``batch_size`` items i.i.d. with P(i) proportional to priority_i^alpha over the valid
     slots.  Returns ``(indices (b,) int32, transitions (leaves (b, ...)), weights (b,) float32)``;
-    weights are (N P(i))^-beta normalised so that the largest in the batch is 1."""
+    weights are (N P(i))^-beta normalised so that the largest in the batch is 1.
+    Sampling an empty buffer returns slot 0 (zeros) with NaN weights: gate updates on
+    ``state.size`` (e.g. with ``lax.cond``).
+    """
     cap = state.capacity
     valid = jnp.arange(cap) < state.size
     p = jnp.where(valid, state.priorities, 0.0) ** alpha

@@ -175,10 +175,6 @@ class Stage1:
         self.env.prepare(state.env.n_worlds)  # caches built outside the trace
         return self._run_jit(state, n)
 
-    @staticmethod
-    def checkpointable(state: Stage1State) -> Stage1State:
-        return state
-
 
 def make_stage1(cfg: Config, env: Optional[VagsEnv] = None) -> Stage1:
     return Stage1(cfg, env)
