@@ -22,7 +22,7 @@ N_CUBE, N_EMPTY, N_LONG = 6, 2, 4
 def outcomes():
     out = {}
     for impl in ("jax", "warp"):
-        cfg = tiny_config(**{"sim.impl": impl, "sim.ls_iterations": 20})
+        cfg = tiny_config(**{"sim.impl": impl})
         sim = Simulator(cfg, build_scene(cfg))
         sc = scenarios(N_CUBE, N_EMPTY, N_LONG, sim.P, cfg, seed=1)
         state = sim.set_objects(sim.empty(sc["pos"].shape[0]), sc["pos"], sc["quat"], sc["active"])

@@ -74,7 +74,7 @@ class Scene:
         "cuboid_long", "cuboid_flat", "cube", "cuboid_tall", "cube_half", "arch",
         "disc", "cylinder", "prism", "half_cylinder",
     )
-    copies_per_shape: int = 2
+    copies_per_shape: int = 1  # 1: the pool is the N = 10 object slots (1.7x faster physics than 2)
     drop_height: float = 0.15  # m above the table
     drop_margin: float = 0.1  # m kept clear of the workspace edge when dropping
     settle_time: float = 1.0  # s of simulation after dropping
@@ -110,9 +110,15 @@ class Sim:
 
     impl: str = "jax"
     timestep: float = 0.002
-    iterations: int = 20
-    ls_iterations: int = 20  # 10 blew up dropped blocks in MuJoCo C (elliptic cones, impratio 10)
+    # Newton solver iterations.  A lower cap is faster on the H100 (bench/RESULTS.md, "physics
+    # profile"); at 5, MJX jax launched 1.3 % of dropped objects off the table (10: 0.3 %, as 20).
+    # ls_iterations below 20 (8, 10, 12) let elliptic cones with impratio 10 inject energy when
+    # blocks land in MuJoCo C (objects launched, NaNs); 20 is stable.
+    iterations: int = 10
+    ls_iterations: int = 20
     impratio: float = 10.0
+    solver: str = "newton"  # MuJoCo constraint solver: "newton" or "cg"
+    tolerance: float = 1e-8  # MuJoCo opt.tolerance: the solver stops early below this improvement
     # Contact / constraint buffers.  None -> sized from the scene (see sim.py).
     naconmax: Optional[int] = None  # warp: contacts across all worlds
     njmax: Optional[int] = None  # warp: constraint rows per world
@@ -128,6 +134,9 @@ class Sim:
         )
         _check(0 < self.timestep <= 0.01, f"Sim.timestep must be in (0, 0.01] s, got {self.timestep}")
         _check(self.iterations >= 1, "Sim.iterations must be >= 1")
+        _check(self.ls_iterations >= 1, "Sim.ls_iterations must be >= 1")
+        _check(self.solver in ("newton", "cg"), f"Sim.solver must be 'newton' or 'cg', got {self.solver!r}")
+        _check(0 <= self.tolerance < 1, f"Sim.tolerance must be in [0, 1), got {self.tolerance}")
 
 
 @dataclass(frozen=True)
@@ -142,10 +151,11 @@ class Grasp:
     finger_stroke: float = 0.085  # m, full opening between the pads
     grip_force: float = 40.0  # N, actuator force limit
     # Phase durations, seconds.
-    t_settle: float = 0.1
+    t_settle: float = 0.02  # gripper teleported at rest above the grasp point, fingers opening
     t_descend: float = 0.4
     t_close: float = 0.3
     t_lift: float = 0.5
+    t_post: float = 0.1  # after the lift: gripper parked, dropped / disturbed objects settle
     # Success: object lifted this far above the table, fingers not fully closed.
     success_lift: float = 0.05
     closed_gap: float = 0.005  # pad gap below this counts as "fully closed"
@@ -156,7 +166,7 @@ class Grasp:
             f"Grasp.n_rotations must be a positive int, got {self.n_rotations!r}",
         )
         _check(self.finger_stroke > 0, "Grasp.finger_stroke must be > 0")
-        for name in ("t_settle", "t_descend", "t_close", "t_lift"):
+        for name in ("t_settle", "t_descend", "t_close", "t_lift", "t_post"):
             _check(getattr(self, name) > 0, f"Grasp.{name} must be > 0 seconds")
 
     @property
@@ -193,7 +203,7 @@ class Camera:
     viewpoint_height: float = 0.25  # m above the surface height at the chosen pixel
     noise: DepthNoise = field(default_factory=DepthNoise)
     renderer: str = "jax"  # "jax": pure-JAX ray caster (any device) | "warp": MJX Warp renderer (GPU)
-    render_batch: int = 256  # worlds rendered + projected together (bounds memory; jax renderer)
+    render_batch: int = 256  # worlds rendered + projected together (bounds memory; both renderers)
 
     def __post_init__(self):
         _check(

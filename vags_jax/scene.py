@@ -252,6 +252,8 @@ def build_spec(cfg: Config) -> mujoco.MjSpec:
     opt.ls_iterations = cfg.sim.ls_iterations
     opt.impratio = cfg.sim.impratio
     opt.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+    opt.solver = {"newton": mujoco.mjtSolver.mjSOL_NEWTON, "cg": mujoco.mjtSolver.mjSOL_CG}[cfg.sim.solver]
+    opt.tolerance = cfg.sim.tolerance
 
     tz = cfg.workspace.table_z
     cx, cy = cfg.workspace.center
