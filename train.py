@@ -99,7 +99,7 @@ def main(argv=None) -> int:
 
     t0 = time.time()
     it, n_chunks, recent = start_it, 0, []
-    grasps_done = start_it * cfg.stage1.n_worlds
+    grasps_done = int(jax.device_get(state.attempts))
     print(f"training stage 1 (GDNet): {cfg.stage1.n_worlds} worlds, {total} iterations, "
           f"impl={cfg.sim.impl}, trunk={cfg.net.trunk}, daes={cfg.exploration.daes}, "
           f"devices={jax.devices()}", file=sys.stderr)
@@ -113,16 +113,17 @@ def main(argv=None) -> int:
             for k in range(n):
                 row = {key: float(np.asarray(v)[k]) for key, v in m.items()}
                 row["iteration"] = it + k
-                row["grasp_attempts"] = (it + k + 1) * cfg.stage1.n_worlds
+                row["grasp_attempts"] = int(row["attempts_total"])
                 row["wall_s"] = round(time.time() - t0, 3)
                 f.write(json.dumps(row) + "\n")
         it += n
         n_chunks += 1
-        grasps_done = it * cfg.stage1.n_worlds
+        n_att = float(np.sum(m["attempts"]))
+        grasps_done = int(m["attempts_total"][-1])
         recent = (recent + list(np.asarray(m["success_rate"])))[-max(10, chunk):]
         if not args.quiet:
             print(progress_line(it, total, grasps_done, float(np.mean(recent)), float(m["epsilon"][-1]),
-                                float(m["loss"][-1]), n * cfg.stage1.n_worlds / dt,
+                                float(m["loss"][-1]), n_att / dt,
                                 float(np.mean(m["explored"]))), end="", file=sys.stderr, flush=True)
         out_of_time = args.max_minutes is not None and time.time() - t0 > 60 * args.max_minutes
         if n_chunks % args.checkpoint_every == 0 or it >= total or out_of_time:

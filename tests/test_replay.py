@@ -46,6 +46,24 @@ def test_ring_buffer_wraparound():
     np.testing.assert_array_equal(st.data["x"], [5, 6, 7, 8, 4])
 
 
+def test_masked_add_packs_the_kept_items_and_wraps():
+    st = _scalar_buffer(5)
+    add = jax.jit(replay.add)
+    st = add(st, _items([0, 1, 2, 3]), jnp.array([True, False, True, False]))
+    assert int(st.size) == 2 and int(st.insert_pos) == 2
+    np.testing.assert_array_equal(st.data["x"][:2], [0, 2])
+    st = st.replace(priorities=st.priorities.at[0].set(0.25))
+    st = add(st, _items([4, 5, 6, 7]), jnp.array([False, True, True, True]))  # slots 2, 3, 4
+    assert int(st.size) == 5 and int(st.insert_pos) == 0
+    np.testing.assert_array_equal(st.data["x"], [0, 2, 5, 6, 7])
+    np.testing.assert_array_equal(st.priorities, [0.25, 1, 1, 1, 1])  # dropped items wrote nothing
+    st = add(st, _items([8, 9]), jnp.array([False, False]))
+    assert int(st.size) == 5 and int(st.insert_pos) == 0
+    np.testing.assert_array_equal(st.data["x"], [0, 2, 5, 6, 7])
+    st = add(st, _items([10, 11]), jnp.array([True, True]))  # wraps over the oldest
+    np.testing.assert_array_equal(st.data["x"], [10, 11, 5, 6, 7])
+
+
 def test_add_more_than_capacity_raises():
     with pytest.raises(ValueError, match="capacity"):
         replay.add(_scalar_buffer(2), _items([0, 1, 2]))

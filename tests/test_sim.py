@@ -134,6 +134,37 @@ def test_mujoco_c_runs_the_same_grasp(grasp_batch, sim, scene):
 # ----------------------------------------------------------------------------- reset
 
 
+def test_grasp_or_reset_grasps_in_some_worlds_and_resets_the_others(grasp_batch, sim, scene, cfg):
+    """The training loop's step: every 4th world gets a new scene that settles while the
+    others grasp; the grasping worlds' outcomes are those of a plain grasp."""
+    state, B = grasp_batch["state"], grasp_batch["pos"].shape[0]
+    reset = np.arange(B) % 4 == 0
+    n_new = np.where(reset, 2, 0).astype(np.int32)
+    start = np.broadcast_to(np.asarray(cfg.camera.global_position, np.float32), (B, 3))
+    keys = jax.random.split(jax.random.PRNGKey(5), B)
+    st, res = jax.jit(sim.grasp_or_reset_batched)(
+        state, jnp.asarray(grasp_batch["position"], jnp.float32), jnp.asarray(grasp_batch["yaw"], jnp.float32),
+        jnp.asarray(start), jnp.asarray(reset), keys, jnp.asarray(n_new))
+    ok, ref = np.asarray(res.success), np.asarray(grasp_batch["res"].success)
+    np.testing.assert_array_equal(ok[~reset], ref[~reset])
+    np.testing.assert_array_equal(np.asarray(st.active)[~reset], np.asarray(grasp_batch["new_state"].active)[~reset])
+    # reset worlds: no grasp, a fresh 2-object scene at rest on the table
+    assert not ok[reset].any() and (np.asarray(res.object)[reset] == -1).all()
+    for f in (res.approach, res.descend, res.lift, res.gripper_gap):
+        np.testing.assert_array_equal(np.asarray(f)[reset], 0.0)
+    active = np.asarray(st.active)
+    np.testing.assert_array_equal(active[reset].sum(1), 2)
+    np.testing.assert_array_equal(np.asarray(st.n_objects)[reset], 2)
+    pos = np.asarray(sim.object_positions(st))
+    assert np.all((pos[reset][active[reset]][:, 2] > 0.0) & (pos[reset][active[reset]][:, 2] < 0.1))
+    qvel = np.asarray(st.data.qvel)
+    for b in np.flatnonzero(reset):
+        for i in np.flatnonzero(active[b]):
+            v = qvel[b, scene.object_dof_adr[i]: scene.object_dof_adr[i] + 3]
+            assert np.abs(v).max() < 0.05, (b, i, v)
+    assert not np.asarray(st.error).any() and not np.asarray(st.overflow).any()
+
+
 def test_reset_puts_n_objects_on_the_table_at_rest(reset_state, sim, scene, cfg):
     n, st = reset_state
     assert isinstance(st, SimState)

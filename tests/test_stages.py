@@ -64,7 +64,10 @@ def test_metrics_are_sane(runs):
         assert set(METRICS) <= set(r)
         assert 0.0 <= r["success_rate"] <= 1.0 and 0.0 <= r["explored"] <= 1.0
         assert r["physics_errors"] == 0 and r["buffer_overflow"] == 0
-    assert rows[-1]["replay_size"] == 8  # 2 worlds x 4 iterations
+    for r in rows:  # every world either grasps (one transition) or starts a new round
+        assert r["attempts"] + r["worlds_resetting"] == 2
+    assert rows[-1]["attempts_total"] == sum(r["attempts"] for r in rows) == rows[-1]["grasp_attempts"]
+    assert rows[-1]["replay_size"] == rows[-1]["attempts_total"]  # one transition per attempt
     assert rows[-1]["updates"] == 1  # learning started once replay held learning_starts
 
 

@@ -77,7 +77,7 @@ class VagsEnv:
         """Build the render geometry for ``n_worlds`` eagerly (the Warp renderer's context is
         per batch size).  Call it before tracing a function that uses the ``step_*`` methods
         (the public methods and ``stages`` do)."""
-        self.geometry(n_worlds)
+        self.geometry(min(n_worlds, self.cfg.camera.render_batch))
 
     def geometry(self, n_worlds: int):
         """Static render geometry (the Warp renderer's context is per batch size)."""
@@ -113,10 +113,11 @@ class VagsEnv:
         cfg = self.cfg
         B = sim_state.n_worlds
         d = sim_state.data
-        geometry = self.geometry(B)
         if cfg.camera.noise.enabled and key is None:
             raise ValueError("camera.noise.enabled needs a PRNG key in observe()")
         keys = jax.random.split(key if key is not None else jax.random.PRNGKey(0), B)
+        chunk = cfg.camera.render_batch
+        geometry = self.geometry(min(B, chunk))
 
         def one_batch(xpos, xmat, rgb, pose, k):
             out = render.render_full(geometry, xpos, xmat, rgb, pose, cfg.camera)
@@ -127,10 +128,10 @@ class VagsEnv:
             return heightmap.heightmaps(depth, out.rgb, pose, cfg.camera, cfg.workspace)
 
         args = (d.geom_xpos, d.geom_xmat, sim_state.geom_rgb, cam_pose, keys)
-        chunk = cfg.camera.render_batch
-        if cfg.camera.renderer == "warp" or B <= chunk:
+        if B <= chunk:
             return one_batch(*args)
-        # Render groups of `chunk` worlds one after the other: memory stays that of one group.
+        # Render groups of `chunk` worlds one after the other: memory stays that of one group
+        # (and the Warp renderer's context is built for `chunk` worlds).
         n = -(-B // chunk)
         pad = n * chunk - B
         grouped = [jnp.concatenate([a, jnp.repeat(a[-1:], pad, 0)]) if pad else a for a in args]
@@ -186,28 +187,52 @@ class VagsEnv:
         yaw = rotation.astype(jnp.float32) * cfg.grasp.rotation_step
         return jnp.concatenate([xy, z[:, None]], axis=1), yaw
 
-    def step_grasp_world(self, state: EnvState, position: jax.Array, yaw: jax.Array,
-                         key: Optional[jax.Array] = None, motions: int = 1, observe: bool = True):
-        """Grasp at world position (B, 3) / yaw (B,), then (``observe``) re-observe the global view."""
-        B = state.n_worlds
-        start = jnp.broadcast_to(jnp.asarray(self.cfg.camera.global_position, jnp.float32), (B, 3))
-        sim_state, result = self.sim.grasp_batched(state.sim, position, yaw, start)
+    def _start(self, n_worlds: int) -> jax.Array:
+        """(B, 3) hand position before a grasp: where the global view was captured."""
+        return jnp.broadcast_to(jnp.asarray(self.cfg.camera.global_position, jnp.float32), (n_worlds, 3))
+
+    def _after_grasp(self, state: EnvState, sim_state: SimState, result: GraspResult, key,
+                     motions: int, observe: bool, grasped: Optional[jax.Array] = None) -> EnvState:
+        """Round bookkeeping (+1 attempt where ``grasped``, (B,) bool, default all) and the
+        new global view.  Worlds that did not grasp (they were reset) start from zero."""
         state = state.replace(sim=sim_state)
         if observe:
             state = self.with_observation(state, key)
-        state = state.replace(
-            attempts=state.attempts + 1,
-            successes=state.successes + result.success.astype(jnp.int32),
-            motions=state.motions + motions,
-            travel=state.travel + result.approach + result.descend + result.lift,
+        g = jnp.ones((state.n_worlds,), bool) if grasped is None else grasped
+        zi = jnp.zeros((state.n_worlds,), jnp.int32)
+        return state.replace(
+            attempts=jnp.where(g, state.attempts + 1, zi),
+            successes=jnp.where(g, state.successes + result.success.astype(jnp.int32), zi),
+            motions=jnp.where(g, state.motions + motions, zi),
+            travel=jnp.where(g, state.travel + result.approach + result.descend + result.lift, 0.0),
         )
-        return state, result
+
+    def step_grasp_world(self, state: EnvState, position: jax.Array, yaw: jax.Array,
+                         key: Optional[jax.Array] = None, motions: int = 1, observe: bool = True):
+        """Grasp at world position (B, 3) / yaw (B,), then (``observe``) re-observe the global view."""
+        sim_state, result = self.sim.grasp_batched(state.sim, position, yaw, self._start(state.n_worlds))
+        return self._after_grasp(state, sim_state, result, key, motions, observe), result
 
     def step_grasp(self, state: EnvState, pixel: jax.Array, rotation: jax.Array,
                    key: Optional[jax.Array] = None, observe: bool = True):
         """Grasp at heightmap pixel (B, 2) [row, col] with rotation index (B,) (unchecked)."""
         position, yaw = self.grasp_pose(state, pixel, rotation)
         return self.step_grasp_world(state, position, yaw, key, observe=observe)
+
+    def step_grasp_or_reset(self, state: EnvState, pixel: jax.Array, rotation: jax.Array,
+                            reset: jax.Array, reset_key: jax.Array, n_objects: jax.Array,
+                            key: Optional[jax.Array] = None, observe: bool = True):
+        """One env step for a training loop: worlds with ``reset`` (B,) bool start a new round
+        of n_objects (B,) int32 (their action is ignored, their GraspResult is a failure), the
+        others grasp at pixel (B, 2) / rotation (B,).  The new scenes settle during the same
+        physics loop as the grasps, so a reset costs no extra simulated time for the batch.
+        reset_key: (2,) raw uint32.  Returns (state, GraspResult)."""
+        B = state.n_worlds
+        position, yaw = self.grasp_pose(state, pixel, rotation)
+        sim_state, result = self.sim.grasp_or_reset_batched(
+            state.sim, position, yaw, self._start(B), reset, jax.random.split(reset_key, B), n_objects)
+        state = self._after_grasp(state, sim_state, result, key, 1, observe, grasped=~reset)
+        return state, result
 
     # ------------------------------------------------------------------ public, validated
 

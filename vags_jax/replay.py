@@ -27,6 +27,8 @@ Storage
 """
 from __future__ import annotations
 
+from typing import Optional
+
 from typing import Any
 
 import flax.struct
@@ -140,21 +142,33 @@ def init(capacity: int, example_transition: PyTree) -> ReplayState:
     )
 
 
-def add(state: ReplayState, transitions: PyTree) -> ReplayState:
+def add(state: ReplayState, transitions: PyTree, mask: Optional[jax.Array] = None) -> ReplayState:
     """Write K transitions (every leaf has leading dim K, K static and <= capacity) at the ring
-    position, overwriting the oldest items once full.  New items get ``state.max_priority``."""
+    position, overwriting the oldest items once full.  New items get ``state.max_priority``.
+
+    mask: optional (K,) bool; only the masked transitions are written (in order, packed
+    together), the others are dropped.
+    """
     leaves = jax.tree.leaves(transitions)
     k = leaves[0].shape[0]
     cap = state.capacity
     if k > cap:
         raise ValueError(f"replay.add: {k} transitions exceed the capacity {cap}; add fewer at a time")
-    idx = (state.insert_pos + jnp.arange(k, dtype=jnp.int32)) % cap
-    data = jax.tree.map(lambda buf, x: buf.at[idx].set(x.astype(buf.dtype)), state.data, transitions)
+    if mask is None:
+        offset, n_new = jnp.arange(k, dtype=jnp.int32), jnp.int32(k)
+        idx = (state.insert_pos + offset) % cap
+    else:
+        mask = jnp.asarray(mask, bool)
+        offset = jnp.cumsum(mask.astype(jnp.int32)) - 1
+        n_new = mask.sum().astype(jnp.int32)
+        idx = jnp.where(mask, (state.insert_pos + offset) % cap, cap)  # cap = out of range: dropped
+    data = jax.tree.map(lambda buf, x: buf.at[idx].set(x.astype(buf.dtype), mode="drop"),
+                        state.data, transitions)
     return state.replace(
         data=data,
-        priorities=state.priorities.at[idx].set(state.max_priority),
-        insert_pos=(state.insert_pos + k) % cap,
-        size=jnp.minimum(state.size + k, cap).astype(jnp.int32),
+        priorities=state.priorities.at[idx].set(state.max_priority, mode="drop"),
+        insert_pos=(state.insert_pos + n_new) % cap,
+        size=jnp.minimum(state.size + n_new, cap).astype(jnp.int32),
     )
 
 

@@ -11,7 +11,8 @@ warp-lang) and jitted, batched functions over ``SimState`` (leading dim B = worl
   spheres would overlap another earlier-drawn body's in xy are stacked above it (spawn never
   interpenetrates), then ``cfg.scene.settle_time`` seconds of physics.  The rest is parked.
 * ``grasp_at(state, position, yaw) -> (SimState, GraspResult)``: one top-down grasp in every
-  world at once (see "Grasp" below).
+  world at once (see "Grasp" below); ``grasp_or_reset_batched``: the same, where the masked
+  worlds start a new scene instead (the training loop's step).
 * helpers: ``empty`` (all parked, for scripted scenes), ``set_objects``, ``object_poses``,
   ``object_positions``, ``park_objects``, ``settle``, ``take_worlds``; host-side
   ``check_overflow(state)``.  Pure-jit users may call them inside their own jit.
@@ -31,8 +32,11 @@ Grasp (all worlds, one jitted call; durations from ``cfg.grasp``):
   Then success is evaluated: an active object rose by more than ``success_lift`` and is above
   ``table_z + success_lift`` and the pad gap is > ``closed_gap``.  The grasped object is the
   lifted one nearest to the TCP; it is parked (active False).  The gripper is parked and the
-  scene settles for another ``t_settle`` so dropped / disturbed objects come to rest before
-  the next observation.  Objects that left the workspace square (or fell through the table)
+  scene settles for another ``t_post`` so dropped / disturbed objects come to rest before
+  the next observation.
+  ``grasp_or_reset_batched`` is the same loop where some worlds, instead of grasping, get a
+  new scene (drawn as by ``reset``) that settles while the others grasp; the loop then lasts
+  max(grasp, ``settle_time``) so every new scene gets its full settle time.  Objects that left the workspace square (or fell through the table)
   are deactivated and parked too, after every reset and grasp.
   Motion distances (commanded, metres, for a picks-per-hour model): ``approach`` = straight
   line from ``start`` (default: ``cfg.camera.global_position``, where the eye-in-hand robot
@@ -61,10 +65,12 @@ Buffers and failures (never silently accepted):
     (more may have been dropped): ``state.overflow``.  Tiny scenes with fewer candidate
     slots than the budget cannot overflow.  Numerical failures (NaNs, an object through the
     table) set ``state.error`` (both impls).
-  Solver note: MuJoCo C (and likely MuJoCo Warp, whose solver follows C) with elliptic cones,
-  impratio 10, a 2 ms step and ``Sim.ls_iterations = 10`` injects energy when blocks land
-  and can blow up to NaN; ``ls_iterations >= 20`` is stable.  MJX jax (different line
-  search) was stable at 10 in our CPU tests.
+  Solver note: with elliptic cones, impratio 10 and a 2 ms step, MuJoCo C needs
+  ``Sim.ls_iterations`` >= 20 (at 8-12 landing blocks gain energy, get launched or blow up to
+  NaN); ``Sim.iterations`` is capped at 10 (at 5 MJX jax launched 1.3 % of dropped objects off
+  the table).  A 4 ms step made wrong-axis cuboid grasps succeed, so the step stays at 2 ms.
+  Only NaNs and tunnelling are flagged (``error``); objects launched out of the workspace are
+  deactivated (counted as lost by the evaluation), so keep ls_iterations at 20.
   ``check_overflow(state)`` (host side, between jitted calls) raises ``RuntimeError`` naming
   the worlds and what to change (or warns with ``warn=True``).  Inside a jitted training loop
   the flags are carried in the state: reset worlds whose ``error`` is set.
@@ -211,7 +217,7 @@ class Simulator:
         steps = lambda t: max(1, int(round(t / dt)))  # noqa: E731
         self.n_settle_reset = int(round(cfg.scene.settle_time / dt))
         n_open, n_desc, n_close, n_lift = (steps(t) for t in (g.t_settle, g.t_descend, g.t_close, g.t_lift))
-        self.n_post = n_open
+        self.n_post = steps(g.t_post)
         zeros, ones = np.zeros, np.ones
         descend = np.concatenate([zeros(n_open), _smooth_ramp(n_desc, 0.75), ones(n_close + n_lift)])
         lift = np.concatenate([zeros(n_open + n_desc + n_close), _smooth_ramp(n_lift, 0.75)])
@@ -226,6 +232,7 @@ class Simulator:
         self._template_cache: dict[int, mjx.Data] = {}
         self._reset_jit = jax.jit(self._reset_impl)
         self._grasp_jit = jax.jit(self._grasp_impl)
+        self._grasp_reset_jit = jax.jit(self._grasp_or_reset_impl)
         self._settle_jit = jax.jit(self._settle_impl, static_argnums=1)
         self._set_jit = jax.jit(self._set_objects_impl)
         self._empty_jit = jax.jit(self._empty_impl, static_argnums=0)
@@ -438,7 +445,9 @@ class Simulator:
 
     # ------------------------------------------------------------------ grasp
 
-    def _grasp_impl(self, state: SimState, position, yaw, start):
+    def _grasp_impl(self, state: SimState, position, yaw, start, reset=None):
+        """Grasp in every world; with ``reset = (mask (B,), keys (B, 2), n_objects (B,))`` the
+        masked worlds instead get a new scene dropped and settling in the same physics loop."""
         cfg, g = self.cfg, self.cfg.grasp
         B, P = state.n_worlds, self.P
         tz = cfg.workspace.table_z
@@ -447,20 +456,42 @@ class Simulator:
         zpre = zg + g.approach_height
         yaw_q = jnp.mod(yaw + jnp.pi / 2, jnp.pi) - jnp.pi / 2
         d = state.data
-        z_before = d.qpos[:, self._obj_qidx[:, 2]]  # (B, P)
+        g_park = jnp.asarray(self.scene.gripper_park_qpos)
         fo = jnp.full((B,), self.finger_open)
-        qpos = d.qpos.at[:, self._g_q].set(jnp.stack([x, y, zpre, yaw_q, fo, fo], axis=1))
+        pre_grasp = jnp.stack([x, y, zpre, yaw_q, fo, fo], axis=1)
+        if reset is None:
+            grasping = jnp.ones((B,), bool)
+            gripper_q = pre_grasp
+        else:
+            mask, keys, n_new = reset
+            grasping = ~mask
+            obj_qpos, active_new, rgb = jax.vmap(self._sample_world)(keys, n_new)
+            qpos_obj = jnp.where(mask[:, None, None], obj_qpos, d.qpos[:, self._obj_qidx])
+            qvel_obj = jnp.where(mask[:, None, None], 0.0, d.qvel[:, self._obj_vidx])
+            d = d.replace(qpos=d.qpos.at[:, self._obj_qidx].set(qpos_obj),
+                          qvel=d.qvel.at[:, self._obj_vidx].set(qvel_obj),
+                          qacc_warmstart=jnp.where(mask[:, None], 0.0, d.qacc_warmstart))
+            geom_rgb = state.geom_rgb.at[:, self.scene.object_geom_ids].set(
+                jnp.where(mask[:, None, None], rgb, state.geom_rgb[:, self.scene.object_geom_ids]))
+            state = state.replace(
+                active=jnp.where(mask[:, None], active_new, state.active), geom_rgb=geom_rgb,
+                n_objects=jnp.where(mask, n_new.astype(jnp.int32), state.n_objects),
+                error=state.error & ~mask, overflow=state.overflow & ~mask,
+            )
+            gripper_q = jnp.where(mask[:, None], g_park, pre_grasp)
+        z_before = d.qpos[:, self._obj_qidx[:, 2]]  # (B, P)
+        qpos = d.qpos.at[:, self._g_q].set(gripper_q)
         qvel = d.qvel.at[:, self._g_v].set(0.0)
         d = d.replace(qpos=qpos, qvel=qvel)
         park_ctrl = self._park_ctrl(B)
-        g_park = jnp.asarray(self.scene.gripper_park_qpos)
         n_main = self.schedule.shape[0]
 
         def ctrl_fn(s):  # s = (descend, lift, close) fractions
             z = zpre + (zg - zpre) * s[0] + g.lift_height * s[1]
             f = self.finger_open + (FINGER_CLOSED_TARGET - self.finger_open) * s[2]
             cols = jnp.stack([x, y, z, yaw_q, jnp.full((B,), f)], axis=1)
-            return jnp.zeros((B, self.nu)).at[:, self._g_act].set(cols)
+            ctrl = jnp.zeros((B, self.nu)).at[:, self._g_act].set(cols)
+            return jnp.where(grasping[:, None], ctrl, park_ctrl)
 
         def evaluate(d, active):
             """After the lift: success (B,), object (B,), gap (B,), active without the grasped."""
@@ -471,13 +502,14 @@ class Simulator:
             tcp = d.qpos[:, self._g_q[:3]]
             dist = jnp.where(lifted, jnp.linalg.norm(pos - tcp[:, None], axis=-1), jnp.inf)
             idx = jnp.argmin(dist, axis=1).astype(jnp.int32)
-            success = lifted.any(axis=1) & (gap > g.closed_gap)
+            success = grasping & lifted.any(axis=1) & (gap > g.closed_gap)
             grasped = success[:, None] & (jnp.arange(P)[None] == idx[:, None])
-            return success, jnp.where(success, idx, -1), gap, active & ~grasped
+            return success, jnp.where(success, idx, -1), jnp.where(grasping, gap, 0.0), active & ~grasped
 
         step = jax.vmap(mjx.step, in_axes=(None, 0))
-        sched = np.concatenate([self.schedule, np.zeros((self.n_post, 3), np.float32)])
-        xs = (jnp.arange(sched.shape[0]), jnp.asarray(sched))
+        n_total = self.n_grasp_steps if reset is None else max(self.n_grasp_steps, self.n_settle_reset)
+        sched = np.concatenate([self.schedule, np.zeros((n_total - n_main, 3), np.float32)])
+        xs = (jnp.arange(n_total), jnp.asarray(sched))
         res0 = (jnp.zeros((B,), bool), jnp.full((B,), -1, jnp.int32), jnp.zeros((B,)))
 
         def body(carry, x):
@@ -502,13 +534,14 @@ class Simulator:
         state = self._housekeep(state.replace(data=d, active=active, overflow=ovf))
 
         pre = jnp.stack([x, y, zpre], axis=1)
+        zero = jnp.zeros((B,), jnp.float32)
         result = GraspResult(
             success=success,
             object=obj,
             gripper_gap=gap,
-            approach=jnp.linalg.norm(pre - start, axis=1),
-            descend=zpre - zg,
-            lift=jnp.full((B,), g.lift_height, jnp.float32),
+            approach=jnp.where(grasping, jnp.linalg.norm(pre - start, axis=1), zero),
+            descend=jnp.where(grasping, zpre - zg, zero),
+            lift=jnp.where(grasping, g.lift_height, zero),
         )
         return state, result
 
@@ -610,5 +643,15 @@ class Simulator:
 
     def grasp_batched(self, state: SimState, position, yaw, start):
         return self._grasp_jit(state, position, yaw, start)
+
+    # grasp_or_reset_batched(state, position, yaw, start, reset (B,) bool, keys (B, 2),
+    # n_objects (B,) int32) -> (SimState, GraspResult): the worlds with ``reset`` set do not
+    # grasp; they get a new scene (as ``reset``), which settles during the same physics loop
+    # (max(grasp, settle_time) long), and their GraspResult is a failure with zero travel.
+    def grasp_or_reset_batched(self, state: SimState, position, yaw, start, reset, keys, n_objects):
+        return self._grasp_reset_jit(state, position, yaw, start, reset, keys, n_objects)
+
+    def _grasp_or_reset_impl(self, state, position, yaw, start, reset, keys, n_objects):
+        return self._grasp_impl(state, position, yaw, start, (reset, keys, n_objects))
 
     check_overflow = staticmethod(check_overflow)

@@ -5,12 +5,15 @@ One *iteration* is, for every world at once:
 
   1. GDNet (eval mode) on the global heightmaps -> Q (B, R, H, W);
   2. DAES picks an action (B, 3) [rotation, row, col] (``vags_jax.exploration``);
-  3. the grasp is simulated (``VagsEnv.step_grasp``); reward = 1 on success else 0;
-  4. worlds whose round is over (clear, attempt budget used, or a physics error) start a new
-     round with a random object count; then every world is rendered once;
-  5. the B transitions go into prioritized replay; a finished round is terminal (no bootstrap:
-     a cleared table has no future, and a reset world's next view is another scene);
-  6. ``updates_per_iteration`` DQN updates from replay (once it holds ``learning_starts``).
+  3. the grasp is simulated (``VagsEnv.step_grasp_or_reset``); reward = 1 on success else 0.
+     Worlds whose round ended in the previous iteration (clear, attempt budget used, or a
+     physics error) do not grasp this time: they get a new scene with a random object count,
+     which settles in the same physics loop as the other worlds' grasps (so a reset does not
+     stall the batch); then every world is rendered once;
+  4. the grasping worlds' transitions go into prioritized replay (the resetting worlds add
+     none); the last transition of a round is terminal (no bootstrap: a cleared table has no
+     future, and the world's next view will be another scene);
+  5. ``updates_per_iteration`` DQN updates from replay (once it holds ``learning_starts``).
 
 Everything is one ``lax.scan`` over iterations inside one jit: no host round trip per step.
 ``Stage1.run(state, n)`` advances n iterations and returns per-iteration metrics, so a caller can
@@ -38,7 +41,9 @@ class Stage1State:
     """Everything stage 1 carries from one iteration to the next (a checkpointable pytree).
 
     env: B worlds (``EnvState``); learner: GDNet online/target variables + optimizer state;
-    replay: prioritized replay of ``GraspTransition``; key: (2,) uint32; iteration: () int32.
+    replay: prioritized replay of ``GraspTransition``; key: (2,) uint32; iteration: () int32;
+    reset_pending: (B,) bool, the world's round ended and it starts a new one next iteration;
+    attempts: () int32, grasp attempts made so far (all worlds).
     """
 
     env: EnvState
@@ -46,13 +51,15 @@ class Stage1State:
     replay: replay.ReplayState
     key: jax.Array
     iteration: jax.Array
+    reset_pending: jax.Array
+    attempts: jax.Array
 
 
 # Per-iteration metrics returned by Stage1.run, each of shape (n,).
 METRICS = (
     "success_rate", "explored", "epsilon", "loss", "td_abs", "q_max", "q_executed",
     "rounds_ended", "rounds_cleared", "objects_on_table", "physics_errors", "buffer_overflow",
-    "replay_size", "updates",
+    "replay_size", "updates", "attempts", "attempts_total", "worlds_resetting",
 )
 
 
@@ -89,7 +96,9 @@ class Stage1:
             env_state.color[0], env_state.height[0], False)
         buffer = replay.init(cfg.replay.capacity, example)
         return Stage1State(env=env_state, learner=learner, replay=buffer, key=k_loop,
-                           iteration=jnp.zeros((), jnp.int32))
+                           iteration=jnp.zeros((), jnp.int32),
+                           reset_pending=jnp.zeros((cfg.stage1.n_worlds,), bool),
+                           attempts=jnp.zeros((), jnp.int32))
 
     # ------------------------------------------------------------------ one iteration
 
@@ -129,38 +138,44 @@ class Stage1:
         q_exec = dqn.q_at_action(q, action)
 
         noise_key = k_grasp if cfg.camera.noise.enabled else None
-        # Physics of the grasp, then of the resets of finished rounds, then ONE render of all
-        # worlds.  A world that was reset stores a terminal transition (its next observation is
-        # the new scene, which must not be bootstrapped from).
-        s2, result = env.step_grasp(s, action[:, 1:], action[:, 0], observe=False)
+        # Grasps of the playing worlds and new scenes of the worlds whose round ended, in one
+        # physics loop, then ONE render of all worlds.
+        resetting = state.reset_pending
+        grasped = ~resetting
+        s2, result = env.step_grasp_or_reset(s, action[:, 1:], action[:, 0], resetting, k_reset,
+                                             self._n_objects(k_n, s.n_worlds), observe=False)
+        s2 = env.with_observation(s2, noise_key)
         reward = result.success.astype(jnp.float32)
-        cleared = env.n_remaining(s2) == 0
+        cleared = grasped & (env.n_remaining(s2) == 0)
         over = env.round_over(s2) | s2.sim.error
-        s3 = env.reset_where(k_reset, s2, over, self._n_objects(k_n, s.n_worlds), observe=False)
-        s3 = env.with_observation(s3, noise_key)
-        transitions = replay.make_grasp_transition(s.color, s.height, action, reward, s3.color, s3.height, over)
-        buffer = replay.add(state.replay, transitions)
+        transitions = replay.make_grasp_transition(s.color, s.height, action, reward, s2.color, s2.height, over)
+        buffer = replay.add(state.replay, transitions, mask=grasped)
         learner, buffer, (loss, td_abs), n_updates = self._learn(state.learner, buffer, k_learn)
 
+        n_grasped = grasped.sum()
+        attempts = state.attempts + n_grasped
         metrics = {
-            "success_rate": reward.mean(),
-            "explored": explored.mean(),
+            "success_rate": reward.sum() / jnp.maximum(n_grasped, 1),
+            "explored": (explored & grasped).sum() / jnp.maximum(n_grasped, 1),
             "epsilon": jnp.asarray(eps, jnp.float32),
             "loss": loss,
             "td_abs": td_abs,
             "q_max": q.reshape(q.shape[0], -1).max(axis=1).mean(),
             "q_executed": q_exec.mean(),
-            "rounds_ended": over.sum(),
+            "rounds_ended": (over & grasped).sum(),
             "rounds_cleared": cleared.sum(),
-            "objects_on_table": env.n_remaining(s3).mean(),
+            "objects_on_table": env.n_remaining(s2).mean(),
             "physics_errors": s2.sim.error.sum(),
             "buffer_overflow": s2.sim.overflow.sum(),
             "replay_size": buffer.size,
             "updates": n_updates,
+            "attempts": n_grasped,
+            "attempts_total": attempts,
+            "worlds_resetting": resetting.sum(),
         }
         metrics = {k: jnp.asarray(v, jnp.float32) for k, v in metrics.items()}
-        new_state = Stage1State(env=s3, learner=learner, replay=buffer, key=key,
-                                iteration=state.iteration + 1)
+        new_state = Stage1State(env=s2, learner=learner, replay=buffer, key=key,
+                                iteration=state.iteration + 1, reset_pending=over, attempts=attempts)
         return new_state, metrics
 
     def _run_impl(self, state: Stage1State, n: int):
