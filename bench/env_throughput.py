@@ -10,8 +10,16 @@ For each (impl, worlds) it times, after a warm-up call that compiles:
                 heightmaps + grasp (physics of approach/descend/close/lift) + re-render +
                 heightmaps of the result -- the figure the foundation issue asks for;
   * grasp     : grasp + re-render + heightmaps only (a training step between resets).
-The grasp is scripted (highest heightmap cell, rotation 0): the physics cost does not depend on
-where it grasps.  Timings are the median of --repeats calls; everything stays on the device.
+  * loop      : the steady state of a training loop (``--loop K`` iterations in one jitted scan,
+                as ``vags_jax.stages`` runs them): every iteration, each world whose round is
+                over starts a new scene (``VagsEnv.step_grasp_or_reset``; it settles while the
+                other worlds grasp), every other world grasps with the scripted heuristic
+                (highest object, narrowest closing axis), then every world is rendered once.
+                Reported: grasp attempts/s (resets, renders and heightmaps included), the
+                share of world-iterations spent resetting and the heuristic's success rate.
+The attempt / grasp rows grasp at the highest heightmap cell with rotation 0: the physics cost
+does not depend on where it grasps.  Timings are the median of --repeats calls; everything stays
+on the device.
 """
 from __future__ import annotations
 
@@ -27,6 +35,7 @@ import numpy as np
 
 from vags_jax import config as C
 from vags_jax.env import VagsEnv
+from vags_jax.evaluate import min_width_grasp
 
 
 def timed(fn, *args, repeats=3):
@@ -39,7 +48,7 @@ def timed(fn, *args, repeats=3):
     return float(np.median(ts)), out
 
 
-def bench_one(cfg, n_worlds, n_objects, repeats):
+def bench_one(cfg, n_worlds, n_objects, repeats, loop_iterations=0, only_loop=False):
     env = VagsEnv(cfg)
     env.prepare(n_worlds)
     n = jnp.full((n_worlds,), n_objects, jnp.int32)
@@ -66,26 +75,64 @@ def bench_one(cfg, n_worlds, n_objects, repeats):
         s, r = env.step_grasp(state, pix, rot)
         return s.height, r.success
 
+    def loop(state, key):
+        """loop_iterations training-loop steps -> (state, attempts, successes, resets)."""
+        def body(carry, k):
+            s, pending, att, suc, res = carry
+            k_reset, k_n = jax.random.split(k)
+            action = min_width_grasp(s.height, cfg)[0]  # (B, 3) [rotation, row, col]
+            s, r = env.step_grasp_or_reset(s, action[:, 1:], action[:, 0], pending, k_reset, n)
+            grasped = ~pending
+            over = env.round_over(s) | s.sim.error
+            return (s, over, att + grasped.sum(), suc + (r.success & grasped).sum(),
+                    res + pending.sum()), None
+
+        zero = jnp.zeros((), jnp.int32)
+        carry = (state, jnp.zeros((n_worlds,), bool), zero, zero, zero)
+        (s, _, att, suc, res), _ = jax.lax.scan(body, carry, jax.random.split(key, loop_iterations))
+        return s, att, suc, res
+
     key = jax.random.PRNGKey(0)
     t0 = time.perf_counter()
     state = env.reset(key, np.full(n_worlds, n_objects))
     t_first_reset = time.perf_counter() - t0
-    t_obs, _ = timed(observe, state, repeats=repeats)
-    t_att, (_, succ) = timed(attempt, key, n, repeats=repeats)
-    t_grasp, _ = timed(grasp, state, repeats=repeats)
-    steps_per_attempt = env.sim.n_settle_reset + env.sim.n_grasp_steps
-    return {
+    row = {
         "impl": cfg.sim.impl, "renderer": cfg.camera.renderer, "worlds": n_worlds,
         "objects": n_objects, "image": f"{cfg.camera.width}x{cfg.camera.height}",
         "heightmap": cfg.workspace.heightmap_px,
-        "heightmaps_per_s": n_worlds / t_obs,
-        "attempts_per_s": n_worlds / t_att,
-        "grasps_per_s": n_worlds / t_grasp,
-        "physics_steps_per_attempt": steps_per_attempt,
-        "env_steps_per_s_in_attempt": n_worlds * steps_per_attempt / t_att,
-        "scripted_success": float(np.mean(np.asarray(succ))),
+        "physics_steps_per_grasp": env.sim.n_grasp_steps,
+        "physics_steps_per_reset": env.sim.n_settle_reset,
         "first_reset_s_incl_compile": t_first_reset,
     }
+    if not only_loop:
+        t_obs, _ = timed(observe, state, repeats=repeats)
+        t_att, (_, succ) = timed(attempt, key, n, repeats=repeats)
+        t_grasp, _ = timed(grasp, state, repeats=repeats)
+        steps_per_attempt = env.sim.n_settle_reset + env.sim.n_grasp_steps
+        row.update({
+            "heightmaps_per_s": n_worlds / t_obs,
+            "attempts_per_s": n_worlds / t_att,
+            "grasps_per_s": n_worlds / t_grasp,
+            "physics_steps_per_attempt": steps_per_attempt,
+            "env_steps_per_s_in_attempt": n_worlds * steps_per_attempt / t_att,
+            "scripted_success": float(np.mean(np.asarray(succ))),
+        })
+    if loop_iterations:
+        loop_jit = jax.jit(loop)
+        t0 = time.perf_counter()
+        state2 = jax.block_until_ready(loop_jit(state, key)[0])  # compile + run (warm-up)
+        row["loop_first_call_s"] = time.perf_counter() - t0
+        t_loop, (_, att, suc, res) = timed(loop_jit, state2, jax.random.PRNGKey(1), repeats=repeats)
+        att, suc, res = int(att), int(suc), int(res)
+        row.update({
+            "loop_iterations": loop_iterations,
+            "loop_attempts_per_s": att / t_loop,
+            "loop_attempts": att,
+            "loop_success": suc / max(att, 1),
+            "loop_reset_share": res / (res + att),
+            "loop_s": t_loop,
+        })
+    return row
 
 
 def main(argv=None):
@@ -97,6 +144,9 @@ def main(argv=None):
     p.add_argument("--config", default="default", help="preset (image size, heightmap size, scene)")
     p.add_argument("--set", nargs="*", default=[], help="config overrides section.field=value")
     p.add_argument("--repeats", type=int, default=3)
+    p.add_argument("--loop", type=int, default=0, metavar="K",
+                   help="also time K iterations of the steady-state training loop (0: skip)")
+    p.add_argument("--only-loop", action="store_true", help="time the loop only")
     p.add_argument("--out", default=None, help="write the rows as JSON here")
     args = p.parse_args(argv)
 
@@ -108,21 +158,23 @@ def main(argv=None):
             cfg = C.replace(C.preset(args.config), **C.parse_overrides(args.set),
                             **{"sim.impl": impl, "camera.renderer": args.renderer})
             try:
-                row = bench_one(cfg, b, args.objects, args.repeats)
+                row = bench_one(cfg, b, args.objects, args.repeats, args.loop, args.only_loop)
             except Exception as e:  # report and continue with the other settings
                 print(f"impl={impl} worlds={b}: FAILED {type(e).__name__}: {str(e)[:400]}", flush=True)
                 continue
             rows.append(row)
             print(json.dumps(row), flush=True)
-    print("\n| impl | renderer | worlds | objects | image | heightmaps/s | grasp attempts/s (reset+render+hm+grasp) | grasps/s (no reset) | env-steps/s |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("\n| impl | renderer | worlds | objects | image | heightmaps/s | grasp attempts/s (reset+render+hm+grasp) | grasps/s (no reset) | env-steps/s | loop: grasp attempts/s | loop: resetting | loop: success |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
+        g = lambda k, f="{:,.0f}": f.format(r[k]) if k in r else "-"  # noqa: E731
         print(f"| {r['impl']} | {r['renderer']} | {r['worlds']} | {r['objects']} | {r['image']} | "
-              f"{r['heightmaps_per_s']:,.0f} | {r['attempts_per_s']:,.0f} | {r['grasps_per_s']:,.0f} | "
-              f"{r['env_steps_per_s_in_attempt']:,.0f} |")
+              f"{g('heightmaps_per_s')} | {g('attempts_per_s')} | {g('grasps_per_s')} | "
+              f"{g('env_steps_per_s_in_attempt')} | {g('loop_attempts_per_s')} | "
+              f"{g('loop_reset_share', '{:.1%}')} | {g('loop_success', '{:.1%}')} |")
     if args.out:
         with open(args.out, "w") as f:
-            json.dump({"device": str(jax.devices()[0].device_kind), "rows": rows}, f, indent=1)
+            json.dump({"device": str(jax.devices()[0].device_kind), "argv": sys.argv[1:], "rows": rows}, f, indent=1)
     return 0 if rows else 1
 
 
