@@ -33,19 +33,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from timing import timed
 from vags_jax import config as C
 from vags_jax.env import VagsEnv
 from vags_jax.evaluate import min_width_grasp
-
-
-def timed(fn, *args, repeats=3):
-    out = jax.block_until_ready(fn(*args))  # compile + warm up
-    ts = []
-    for _ in range(repeats):
-        t = time.perf_counter()
-        out = jax.block_until_ready(fn(*args))
-        ts.append(time.perf_counter() - t)
-    return float(np.median(ts)), out
 
 
 def bench_one(cfg, n_worlds, n_objects, repeats, loop_iterations=0, only_loop=False):

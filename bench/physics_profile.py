@@ -33,6 +33,7 @@ import jax.numpy as jnp
 import numpy as np
 from mujoco import mjx
 
+from timing import timed
 from vags_jax import config as C
 from vags_jax.scene import build_scene
 from vags_jax.sim import Simulator
@@ -47,16 +48,6 @@ DEFAULT_VARIANTS = [
 ]
 
 
-def _timed(fn, *args, repeats=3):
-    out = jax.block_until_ready(fn(*args))
-    ts = []
-    for _ in range(repeats):
-        t = time.perf_counter()
-        out = jax.block_until_ready(fn(*args))
-        ts.append(time.perf_counter() - t)
-    return float(np.median(ts)), out
-
-
 def profile(cfg: C.Config, n_worlds: int, n_objects: int, repeats: int, fast_raw: bool = True) -> dict:
     sim = Simulator(cfg, build_scene(cfg))
     B = n_worlds
@@ -65,11 +56,11 @@ def profile(cfg: C.Config, n_worlds: int, n_objects: int, repeats: int, fast_raw
     t0 = time.perf_counter()
     state = jax.block_until_ready(sim.reset(key, n))
     t_first = time.perf_counter() - t0
-    t_reset, state = _timed(lambda: sim.reset(key, n), repeats=repeats)
+    t_reset, state = timed(lambda: sim.reset(key, n), repeats=repeats)
 
     settle_s = 0.2
     n_settle = int(round(settle_s / cfg.sim.timestep))
-    t_settle, settled = _timed(lambda s: sim.settle(s, settle_s), state, repeats=repeats)
+    t_settle, settled = timed(lambda s: sim.settle(s, settle_s), state, repeats=repeats)
 
     step = jax.vmap(mjx.step, in_axes=(None, 0))
 
@@ -79,7 +70,7 @@ def profile(cfg: C.Config, n_worlds: int, n_objects: int, repeats: int, fast_raw
                                 unroll=unroll)[0]
         return jax.jit(raw, compiler_options=options)
 
-    t_raw, _ = _timed(make_raw(1, None), state.data, repeats=repeats)
+    t_raw, _ = timed(make_raw(1, None), state.data, repeats=repeats)
     raw_fast = {}
     if cfg.sim.impl == "warp" and jax.default_backend() == "gpu" and fast_raw:
         # What MJX's own Warp benchmark (mujoco/mjx/warp/testspeed.py) does: unroll the step
@@ -87,7 +78,7 @@ def profile(cfg: C.Config, n_worlds: int, n_objects: int, repeats: int, fast_raw
         for name, unroll, opts in (("raw_unroll4", 4, None),
                                    ("raw_unroll4_graph1", 4, {"xla_gpu_graph_min_graph_size": 1})):
             try:
-                t, _ = _timed(make_raw(unroll, opts), state.data, repeats=repeats)
+                t, _ = timed(make_raw(unroll, opts), state.data, repeats=repeats)
                 raw_fast[f"{name}_steps_per_s"] = B * n_settle / t
             except Exception as e:  # report and go on
                 raw_fast[f"{name}_error"] = f"{type(e).__name__}: {str(e)[:200]}"
@@ -97,7 +88,7 @@ def profile(cfg: C.Config, n_worlds: int, n_objects: int, repeats: int, fast_raw
     top = jnp.argmax(z, axis=1)
     target = pos[jnp.arange(B), top]
     yaw = jnp.zeros((B,), jnp.float32)
-    t_grasp, (gstate, gres) = _timed(lambda s: sim.grasp_at(s, target, yaw), state, repeats=repeats)
+    t_grasp, (gstate, gres) = timed(lambda s: sim.grasp_at(s, target, yaw), state, repeats=repeats)
 
     row = {
         "variant": None, "impl": cfg.sim.impl, "worlds": B, "objects": n_objects,
