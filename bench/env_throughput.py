@@ -69,18 +69,16 @@ def bench_one(cfg, n_worlds, n_objects, repeats, loop_iterations=0, only_loop=Fa
     def loop(state, key):
         """loop_iterations training-loop steps -> (state, attempts, successes, resets)."""
         def body(carry, k):
-            s, pending, att, suc, res = carry
-            k_reset, k_n = jax.random.split(k)
+            s, att, suc, res = carry
+            pending = env.round_over(s) | s.sim.error  # rounds that ended last iteration
             action = min_width_grasp(s.height, cfg)[0]  # (B, 3) [rotation, row, col]
-            s, r = env.step_grasp_or_reset(s, action[:, 1:], action[:, 0], pending, k_reset, n)
+            s, r = env.step_grasp_or_reset(s, action[:, 1:], action[:, 0], pending, k, n)
             grasped = ~pending
-            over = env.round_over(s) | s.sim.error
-            return (s, over, att + grasped.sum(), suc + (r.success & grasped).sum(),
-                    res + pending.sum()), None
+            return (s, att + grasped.sum(), suc + (r.success & grasped).sum(), res + pending.sum()), None
 
         zero = jnp.zeros((), jnp.int32)
-        carry = (state, jnp.zeros((n_worlds,), bool), zero, zero, zero)
-        (s, _, att, suc, res), _ = jax.lax.scan(body, carry, jax.random.split(key, loop_iterations))
+        (s, att, suc, res), _ = jax.lax.scan(body, (state, zero, zero, zero),
+                                             jax.random.split(key, loop_iterations))
         return s, att, suc, res
 
     key = jax.random.PRNGKey(0)

@@ -109,8 +109,7 @@ def test_load_gdnet_restores_only_the_learner(tmp_path):
     buffer = replay.init(cfg.replay.capacity, replay.make_grasp_transition(c, h, jnp.zeros((3,), jnp.int32), 0.0, c, h, False))
     env_stub = {"a": jnp.ones((5, 2)), "empty": jnp.zeros((0,)), "b": jnp.arange(3)}  # any env pytree
     state = Stage1State(env=env_stub, learner=learner, replay=buffer, key=jnp.zeros((2,), jnp.uint32),
-                        iteration=jnp.asarray(7, jnp.int32), reset_pending=jnp.zeros((5,), bool),
-                        attempts=jnp.asarray(35, jnp.int32))
+                        iteration=jnp.asarray(7, jnp.int32), attempts=jnp.asarray(35, jnp.int32))
     run = str(tmp_path / "run")
     checkpoint.save_config(run, cfg)
     checkpoint.save(run, 7, state)

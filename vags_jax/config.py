@@ -74,7 +74,7 @@ class Scene:
         "cuboid_long", "cuboid_flat", "cube", "cuboid_tall", "cube_half", "arch",
         "disc", "cylinder", "prism", "half_cylinder",
     )
-    copies_per_shape: int = 1  # 1: the pool is the N = 10 object slots (1.7x faster physics than 2)
+    copies_per_shape: int = 1  # 1: the pool is the N = 10 object slots (1.5x faster physics than 2)
     drop_height: float = 0.15  # m above the table
     drop_margin: float = 0.1  # m kept clear of the workspace edge when dropping
     settle_time: float = 1.0  # s of simulation after dropping

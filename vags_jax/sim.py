@@ -393,22 +393,34 @@ class Simulator:
         rgb = jnp.asarray(sc.palette)[colours[rank % sc.palette.shape[0]]]
         return obj_qpos, active, rgb
 
+    def _start_rounds(self, state: SimState, mask, keys, n_objects) -> SimState:
+        """Worlds with mask (B,) get a new scene drawn with keys (B, 2) and n_objects (B,):
+        objects placed at their drop poses at rest, new colours, flags cleared (no physics;
+        the caller lets them settle).  The other worlds are unchanged."""
+        d = state.data
+        obj_qpos, active, rgb = jax.vmap(self._sample_world)(keys, n_objects)
+        m3 = mask[:, None, None]
+        d = d.replace(
+            qpos=d.qpos.at[:, self._obj_qidx].set(jnp.where(m3, obj_qpos, d.qpos[:, self._obj_qidx])),
+            qvel=d.qvel.at[:, self._obj_vidx].set(jnp.where(m3, 0.0, d.qvel[:, self._obj_vidx])),
+            qacc_warmstart=jnp.where(mask[:, None], 0.0, d.qacc_warmstart),
+        )
+        ids = self.scene.object_geom_ids
+        return state.replace(
+            data=d,
+            active=jnp.where(mask[:, None], active, state.active),
+            geom_rgb=state.geom_rgb.at[:, ids].set(jnp.where(m3, rgb, state.geom_rgb[:, ids])),
+            n_objects=jnp.where(mask, n_objects.astype(jnp.int32), state.n_objects),
+            error=state.error & ~mask, overflow=state.overflow & ~mask,
+        )
+
     def _reset_impl(self, keys, n_objects) -> SimState:
         B = keys.shape[0]
-        obj_qpos, active, rgb = jax.vmap(self._sample_world)(keys, n_objects)
-        qpos = jnp.broadcast_to(jnp.asarray(self._qpos0), (B, self.nq))
-        qpos = qpos.at[:, self._obj_qidx].set(obj_qpos)
-        d = self._fresh_data(qpos, jnp.zeros((B, self.nv)), self._park_ctrl(B))
-        ovf = self._overflow_now(d, B)
+        state = self._start_rounds(self._empty_impl(B), jnp.ones((B,), bool), keys, n_objects)
         park_ctrl = self._park_ctrl(B)
-        d, ovf = self._run(d, active, ovf, lambda _: park_ctrl, jnp.zeros((self.n_settle_reset,)))
-        geom_rgb = jnp.broadcast_to(jnp.asarray(self.scene.default_geom_rgb), (B,) + self.scene.default_geom_rgb.shape)
-        geom_rgb = geom_rgb.at[:, self.scene.object_geom_ids].set(rgb)
-        state = SimState(
-            data=d, active=active, geom_rgb=geom_rgb, n_objects=n_objects.astype(jnp.int32),
-            error=jnp.zeros((B,), bool), overflow=ovf,
-        )
-        return self._housekeep(state)
+        d, ovf = self._run(state.data, state.active, state.overflow, lambda _: park_ctrl,
+                           jnp.zeros((self.n_settle_reset,)))
+        return self._housekeep(state.replace(data=d, overflow=ovf))
 
     def reset(self, key, n_objects) -> SimState:
         """New scenes.  key: (2,) or (B, 2) uint32 (or typed key () / (B,)); n_objects: (B,) int.
@@ -465,19 +477,8 @@ class Simulator:
         else:
             mask, keys, n_new = reset
             grasping = ~mask
-            obj_qpos, active_new, rgb = jax.vmap(self._sample_world)(keys, n_new)
-            qpos_obj = jnp.where(mask[:, None, None], obj_qpos, d.qpos[:, self._obj_qidx])
-            qvel_obj = jnp.where(mask[:, None, None], 0.0, d.qvel[:, self._obj_vidx])
-            d = d.replace(qpos=d.qpos.at[:, self._obj_qidx].set(qpos_obj),
-                          qvel=d.qvel.at[:, self._obj_vidx].set(qvel_obj),
-                          qacc_warmstart=jnp.where(mask[:, None], 0.0, d.qacc_warmstart))
-            geom_rgb = state.geom_rgb.at[:, self.scene.object_geom_ids].set(
-                jnp.where(mask[:, None, None], rgb, state.geom_rgb[:, self.scene.object_geom_ids]))
-            state = state.replace(
-                active=jnp.where(mask[:, None], active_new, state.active), geom_rgb=geom_rgb,
-                n_objects=jnp.where(mask, n_new.astype(jnp.int32), state.n_objects),
-                error=state.error & ~mask, overflow=state.overflow & ~mask,
-            )
+            state = self._start_rounds(state, mask, keys, n_new)
+            d = state.data
             gripper_q = jnp.where(mask[:, None], g_park, pre_grasp)
         z_before = d.qpos[:, self._obj_qidx[:, 2]]  # (B, P)
         qpos = d.qpos.at[:, self._g_q].set(gripper_q)

@@ -42,8 +42,8 @@ class Stage1State:
 
     env: B worlds (``EnvState``); learner: GDNet online/target variables + optimizer state;
     replay: prioritized replay of ``GraspTransition``; key: (2,) uint32; iteration: () int32;
-    reset_pending: (B,) bool, the world's round ended and it starts a new one next iteration;
-    attempts: () int32, grasp attempts made so far (all worlds).
+    attempts: () int32, grasp attempts made so far (all worlds).  (Which worlds start a new
+    round in the next iteration follows from ``env``: ``round_over`` or a physics error.)
     """
 
     env: EnvState
@@ -51,7 +51,6 @@ class Stage1State:
     replay: replay.ReplayState
     key: jax.Array
     iteration: jax.Array
-    reset_pending: jax.Array
     attempts: jax.Array
 
 
@@ -96,9 +95,7 @@ class Stage1:
             env_state.color[0], env_state.height[0], False)
         buffer = replay.init(cfg.replay.capacity, example)
         return Stage1State(env=env_state, learner=learner, replay=buffer, key=k_loop,
-                           iteration=jnp.zeros((), jnp.int32),
-                           reset_pending=jnp.zeros((cfg.stage1.n_worlds,), bool),
-                           attempts=jnp.zeros((), jnp.int32))
+                           iteration=jnp.zeros((), jnp.int32), attempts=jnp.zeros((), jnp.int32))
 
     # ------------------------------------------------------------------ one iteration
 
@@ -140,7 +137,7 @@ class Stage1:
         noise_key = k_grasp if cfg.camera.noise.enabled else None
         # Grasps of the playing worlds and new scenes of the worlds whose round ended, in one
         # physics loop, then ONE render of all worlds.
-        resetting = state.reset_pending
+        resetting = env.round_over(s) | s.sim.error  # rounds that ended last iteration
         grasped = ~resetting
         s2, result = env.step_grasp_or_reset(s, action[:, 1:], action[:, 0], resetting, k_reset,
                                              self._n_objects(k_n, s.n_worlds), observe=False)
@@ -175,7 +172,7 @@ class Stage1:
         }
         metrics = {k: jnp.asarray(v, jnp.float32) for k, v in metrics.items()}
         new_state = Stage1State(env=s2, learner=learner, replay=buffer, key=key,
-                                iteration=state.iteration + 1, reset_pending=over, attempts=attempts)
+                                iteration=state.iteration + 1, attempts=attempts)
         return new_state, metrics
 
     def _run_impl(self, state: Stage1State, n: int):
