@@ -67,19 +67,23 @@ def bench_one(cfg, n_worlds, n_objects, repeats, loop_iterations=0, only_loop=Fa
         return s.height, r.success
 
     def loop(state, key):
-        """loop_iterations training-loop steps -> (state, attempts, successes, resets)."""
+        """loop_iterations training-loop steps -> (state, attempts, successes, resets, lost):
+        lost = objects that left the workspace during a grasp without being grasped."""
         def body(carry, k):
-            s, att, suc, res = carry
+            s, att, suc, res, lost = carry
             pending = env.round_over(s) | s.sim.error  # rounds that ended last iteration
             action = min_width_grasp(s.height, cfg)[0]  # (B, 3) [rotation, row, col]
+            before = s.sim.active.sum(axis=1)
             s, r = env.step_grasp_or_reset(s, action[:, 1:], action[:, 0], pending, k, n)
             grasped = ~pending
-            return (s, att + grasped.sum(), suc + (r.success & grasped).sum(), res + pending.sum()), None
+            gone = before - s.sim.active.sum(axis=1) - r.success.astype(jnp.int32)
+            return (s, att + grasped.sum(), suc + (r.success & grasped).sum(), res + pending.sum(),
+                    lost + jnp.where(grasped, gone, 0).sum()), None
 
         zero = jnp.zeros((), jnp.int32)
-        (s, att, suc, res), _ = jax.lax.scan(body, (state, zero, zero, zero),
-                                             jax.random.split(key, loop_iterations))
-        return s, att, suc, res
+        (s, att, suc, res, lost), _ = jax.lax.scan(body, (state, zero, zero, zero, zero),
+                                                   jax.random.split(key, loop_iterations))
+        return s, att, suc, res, lost
 
     key = jax.random.PRNGKey(0)
     t0 = time.perf_counter()
@@ -111,14 +115,20 @@ def bench_one(cfg, n_worlds, n_objects, repeats, loop_iterations=0, only_loop=Fa
         t0 = time.perf_counter()
         state2 = jax.block_until_ready(loop_jit(state, key)[0])  # compile + run (warm-up)
         row["loop_first_call_s"] = time.perf_counter() - t0
-        t_loop, (_, att, suc, res) = timed(loop_jit, state2, jax.random.PRNGKey(1), repeats=repeats)
-        att, suc, res = int(att), int(suc), int(res)
+        # Timed: the next loop_iterations iterations (the first call compiled and warmed up).
+        t0 = time.perf_counter()
+        s_end, att, suc, res, lost = jax.block_until_ready(loop_jit(state2, jax.random.PRNGKey(1)))
+        t_loop = time.perf_counter() - t0
+        att, suc, res, lost = int(att), int(suc), int(res), int(lost)
         row.update({
             "loop_iterations": loop_iterations,
             "loop_attempts_per_s": att / t_loop,
             "loop_attempts": att,
             "loop_success": suc / max(att, 1),
             "loop_reset_share": res / (res + att),
+            "loop_lost_per_attempt": lost / max(att, 1),
+            "loop_errors": int(np.asarray(s_end.sim.error).sum()),
+            "loop_overflow": int(np.asarray(s_end.sim.overflow).sum()),
             "loop_s": t_loop,
         })
     return row
@@ -153,14 +163,15 @@ def main(argv=None):
                 continue
             rows.append(row)
             print(json.dumps(row), flush=True)
-    print("\n| impl | renderer | worlds | objects | image | heightmaps/s | grasp attempts/s (reset+render+hm+grasp) | grasps/s (no reset) | env-steps/s | loop: grasp attempts/s | loop: resetting | loop: success |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("\n| impl | renderer | worlds | objects | image | heightmaps/s | grasp attempts/s (reset+render+hm+grasp) | grasps/s (no reset) | env-steps/s | loop: grasp attempts/s | loop: resetting | loop: success | loop: lost / attempt |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         g = lambda k, f="{:,.0f}": f.format(r[k]) if k in r else "-"  # noqa: E731
         print(f"| {r['impl']} | {r['renderer']} | {r['worlds']} | {r['objects']} | {r['image']} | "
               f"{g('heightmaps_per_s')} | {g('attempts_per_s')} | {g('grasps_per_s')} | "
               f"{g('env_steps_per_s_in_attempt')} | {g('loop_attempts_per_s')} | "
-              f"{g('loop_reset_share', '{:.1%}')} | {g('loop_success', '{:.1%}')} |")
+              f"{g('loop_reset_share', '{:.1%}')} | {g('loop_success', '{:.1%}')} | "
+              f"{g('loop_lost_per_attempt', '{:.3f}')} |")
     if args.out:
         with open(args.out, "w") as f:
             json.dump({"device": str(jax.devices()[0].device_kind), "argv": sys.argv[1:], "rows": rows}, f, indent=1)

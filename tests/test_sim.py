@@ -107,6 +107,29 @@ def test_grasp_travel_distances(grasp_batch, cfg):
     assert isinstance(res, GraspResult) and res.success.shape == (position.shape[0],)
 
 
+def test_guarded_descent_starts_above_the_highest_object_within_reach(sim, scene, cfg):
+    """descent_start, hand-computed: clearance above the highest bounding-box corner of an
+    active object within reach, else above the grasp point, capped at approach_height."""
+    h = float(scene.object_half_height[CUBE])  # upright cube: half its edge
+    c, ah = cfg.grasp.descent_clearance, cfg.grasp.approach_height
+    B, P = 5, sim.P
+    pos = np.tile(np.array([0.4, 0.4, 0.3], np.float32), (B, P, 1))  # parked positions (inactive)
+    quat = np.tile(np.array([1, 0, 0, 0], np.float32), (B, P, 1))
+    active = np.zeros((B, P), bool)
+    pos[0, CUBE] = [0.0, 0.0, h]  # upright cube under the gripper
+    pos[1, CUBE] = [0.15, 0.0, h]  # upright cube out of reach (0.15 m > stroke / 2 + 2 cm + radius)
+    pos[2, CUBE] = [0.0, 0.0, 0.1]  # cube tilted 45 deg about x, held at 10 cm
+    quat[2, CUBE] = [np.cos(np.pi / 8), np.sin(np.pi / 8), 0, 0]
+    pos[3, CUBE] = [0.0, 0.0, h]  # the same cube, but not active
+    pos[4, CUBE] = [0.0, 0.0, 0.5]  # a cube far above: capped at approach_height
+    active[[0, 1, 2, 4], CUBE] = True
+    state = sim.set_objects(sim.empty(B), pos, quat, active)
+    zg = np.array([2 * h - 0.03, 0.01, 0.02, 0.01, 0.01], np.float32)
+    zs = np.asarray(sim.descent_start(state.data, state.active, jnp.zeros(B), jnp.zeros(B), jnp.asarray(zg)))
+    expect = [2 * h + c, 0.01 + c, 0.1 + np.sqrt(2) * h + c, 0.01 + c, 0.01 + ah]
+    np.testing.assert_allclose(zs, expect, atol=1e-5)
+
+
 def test_mujoco_c_runs_the_same_grasp(grasp_batch, sim, scene):
     """The scene compiles in MuJoCo C; the same scripted grasp (schedule of the simulator)
     lifts the cube there too, and the final pad gap agrees with MJX."""
@@ -118,7 +141,8 @@ def test_mujoco_c_runs_the_same_grasp(grasp_batch, sim, scene):
     d.qpos[a: a + 7] = np.concatenate([grasp_batch["pos"][w, CUBE], grasp_batch["quat"][w, CUBE]])
     x, y, zg = grasp_batch["position"][w]
     yaw = (grasp_batch["yaw"][w] + np.pi / 2) % np.pi - np.pi / 2
-    zpre = zg + sim.cfg.grasp.approach_height
+    st = grasp_batch["state"]
+    zpre = float(sim.descent_start(st.data, st.active, *[jnp.asarray(grasp_batch["position"][:, i]) for i in range(3)])[w])
     fo = sim.finger_open
     d.qpos[scene.gripper_qpos_adr] = [x, y, zpre, yaw, fo, fo]
     for s in sim.schedule:

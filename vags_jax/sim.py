@@ -26,6 +26,11 @@ Grasp (all worlds, one jitted call; durations from ``cfg.grasp``):
   0. the gripper is placed (teleported, at rest) with its TCP ``approach_height`` above the
      grasp point, closing axis at ``yaw``, fingers open.  The grasp point is ``position`` with
      z clamped to ``>= table_z + min_height_above_table``.  TCP = midpoint of the fingertips.
+     With ``cfg.grasp.descent_clearance`` = c (guarded descent) it is placed lower, at
+     ``descent_start``: c above the highest point (top of the world-frame bounding box) of any
+     active object whose bounding sphere comes within the gripper's reach of the grasp axis, or
+     c above the grasp point if that is higher, capped at ``approach_height`` -- the free-space
+     part of the descent, where nothing can be touched, is not simulated.
   1. open / settle ``t_settle``;  2. descend to the grasp point ``t_descend`` (smooth profile
      over the first 75 %, then hold);  3. close ``t_close``;  4. lift by ``lift_height``
      ``t_lift`` (smooth over the first 75 %).
@@ -96,6 +101,11 @@ WARP_BUFFER_OVERFLOW_BITS = (1 << 0) | (1 << 1) | (1 << 2) | (1 << 3) | (1 << 4)
 # Thresholds for housekeeping.
 BELOW_TABLE = 0.02  # m; an object whose centre is this far below the table top fell through
 SPAWN_GAP = 0.005  # m between bounding spheres of stacked spawn poses
+# Guarded descent: an object counts as "within reach" of the descending gripper when its
+# bounding sphere comes closer than finger_stroke / 2 + REACH_MARGIN to the grasp axis (the open
+# pads reach finger_stroke / 2 + 8 mm along the closing axis and 12 mm across it; the palm is
+# narrower).
+REACH_MARGIN = 0.02
 
 
 @struct.dataclass
@@ -210,6 +220,9 @@ class Simulator:
         self._g_v = scene.gripper_dof_adr
         self._g_act = scene.gripper_actuator_ids
         self.finger_open = cfg.grasp.finger_stroke / 2
+        ids = scene.object_geom_ids
+        self._obj_aabb = np.asarray(m.geom_aabb[ids], np.float32)  # (P, 6) centre, half size (geom frame)
+        self._obj_rbound = np.asarray(m.geom_rbound[ids], np.float32)  # (P,)
         self._ctrl_park = scene.park_ctrl  # (nu,)
 
         dt = cfg.sim.timestep
@@ -470,7 +483,9 @@ class Simulator:
         d = state.data
         g_park = jnp.asarray(self.scene.gripper_park_qpos)
         fo = jnp.full((B,), self.finger_open)
-        pre_grasp = jnp.stack([x, y, zpre, yaw_q, fo, fo], axis=1)
+        # Where the simulated descent starts (the free-space part above it is skipped).
+        zs = zpre if g.descent_clearance is None else self.descent_start(d, state.active, x, y, zg)
+        pre_grasp = jnp.stack([x, y, zs, yaw_q, fo, fo], axis=1)
         if reset is None:
             grasping = jnp.ones((B,), bool)
             gripper_q = pre_grasp
@@ -488,7 +503,7 @@ class Simulator:
         n_main = self.schedule.shape[0]
 
         def ctrl_fn(s):  # s = (descend, lift, close) fractions
-            z = zpre + (zg - zpre) * s[0] + g.lift_height * s[1]
+            z = zs + (zg - zs) * s[0] + g.lift_height * s[1]
             f = self.finger_open + (FINGER_CLOSED_TARGET - self.finger_open) * s[2]
             cols = jnp.stack([x, y, z, yaw_q, jnp.full((B,), f)], axis=1)
             ctrl = jnp.zeros((B, self.nu)).at[:, self._g_act].set(cols)
@@ -545,6 +560,26 @@ class Simulator:
             lift=jnp.where(grasping, g.lift_height, zero),
         )
         return state, result
+
+    def descent_start(self, d: mjx.Data, active, x, y, zg):
+        """(B,) TCP height where a guarded descent starts (``cfg.grasp.descent_clearance``).
+
+        d: batched Data with current geom poses; active: (B, P) bool; x, y, zg: (B,) grasp
+        point.  The top of an object is the highest corner of its geom's bounding box in the
+        world frame; objects count when their bounding sphere (xy distance) comes within
+        ``finger_stroke / 2 + REACH_MARGIN`` of the grasp axis.  Result: clearance above the
+        highest such top or above zg, whichever is higher, capped at ``zg + approach_height``.
+        """
+        g = self.cfg.grasp
+        ids = self.scene.object_geom_ids
+        pos, rot = d.geom_xpos[:, ids], d.geom_xmat[:, ids]  # (B, P, 3), (B, P, 3, 3)
+        rz = rot[:, :, 2, :]  # (B, P, 3): world z of each geom axis
+        c, h = jnp.asarray(self._obj_aabb[:, :3]), jnp.asarray(self._obj_aabb[:, 3:])
+        top = pos[..., 2] + (rz * c).sum(-1) + (jnp.abs(rz) * h).sum(-1)  # (B, P)
+        dxy = jnp.linalg.norm(pos[..., :2] - jnp.stack([x, y], axis=-1)[:, None], axis=-1)
+        near = active & (dxy < g.finger_stroke / 2 + REACH_MARGIN + jnp.asarray(self._obj_rbound))
+        z_top = jnp.where(near, top, -jnp.inf).max(axis=1)
+        return jnp.minimum(zg + g.approach_height, jnp.maximum(zg, z_top) + g.descent_clearance)
 
     def grasp_at(self, state: SimState, position, yaw, start=None):
         """Top-down grasp in every world.
