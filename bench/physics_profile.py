@@ -23,7 +23,6 @@ grasping (a variant that is fast but blows up or launches objects is no use).
 from __future__ import annotations
 
 import argparse
-import json
 import platform
 import sys
 import time
@@ -33,7 +32,7 @@ import jax.numpy as jnp
 import numpy as np
 from mujoco import mjx
 
-from timing import timed
+from timing import emit_row, parse_variant, timed
 from vags_jax import config as C
 from vags_jax.scene import build_scene
 from vags_jax.sim import Simulator
@@ -139,8 +138,7 @@ def main(argv=None):
     rows = []
     for b in args.worlds:
         for v in variants:
-            name, _, ov = v.partition(":")
-            overrides = [o for o in ov.split(";") if o]
+            name, overrides = parse_variant(v)
             try:
                 cfg = C.replace(C.preset(args.config), **C.parse_overrides(args.set + overrides),
                                 **{"sim.impl": args.impl})
@@ -152,10 +150,7 @@ def main(argv=None):
             row["variant"], row["overrides"] = name, overrides
             row["wall_s"] = time.perf_counter() - t
             rows.append(row)
-            print(json.dumps(row), flush=True)
-            if args.out:
-                with open(args.out, "a") as f:
-                    f.write(json.dumps(row) + "\n")
+            emit_row(row, args.out)
     print("\n| variant | worlds | pool | nv | reset steps/s | settle steps/s | raw steps/s | grasp steps/s | grasps/s | success | errors | lost | solver iters |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:

@@ -25,7 +25,6 @@ captured steps) so the expensive phases are named, not guessed.
 from __future__ import annotations
 
 import argparse
-import json
 import platform
 import sys
 import time
@@ -33,6 +32,7 @@ import time
 import jax
 import numpy as np
 
+from timing import emit_row, parse_variant
 from vags_jax import config as C
 from vags_jax.scene import build_scene
 from vags_jax.sim import Simulator
@@ -125,8 +125,7 @@ def main(argv=None):
 
     rows = []
     for i, v in enumerate(args.variant or ["default:"]):
-        name, _, ov = v.partition(":")
-        overrides = [o for o in ov.split(";") if o]
+        name, overrides = parse_variant(v)
         cfg = C.replace(base, **C.parse_overrides(overrides))
         scene = build_scene(cfg)
         vsim = Simulator(cfg, scene)
@@ -142,10 +141,7 @@ def main(argv=None):
         row.update(_time_warp(mjw, wp, warp_util, scene.mj_model, B, nacon, njmax, qpos, qvel, ctrl,
                               args.steps, args.trace_depth))
         rows.append(row)
-        print(json.dumps(row), flush=True)
-        if args.out:
-            with open(args.out, "a") as f:
-                f.write(json.dumps(row) + "\n")
+        emit_row(row, args.out)
     print("\n| variant | steps/s, JAX-like (no graph conditionals) | steps/s, native | mean / max solver iterations | worlds at the cap |")
     print("|---|---|---|---|---|")
     for r in rows:

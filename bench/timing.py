@@ -1,6 +1,8 @@
-"""Shared timing helper for the bench scripts (run as ``python bench/<script>.py``)."""
+"""Shared helpers for the bench scripts (run as ``python bench/<script>.py``): timing, named
+config variants, result rows."""
 from __future__ import annotations
 
+import json
 import time
 
 import jax
@@ -20,3 +22,17 @@ def timed(fn, *args, repeats: int = 3):
         out = jax.block_until_ready(fn(*args))
         ts.append(time.perf_counter() - t)
     return float(np.median(ts)), out
+
+
+def parse_variant(spec: str) -> tuple[str, list[str]]:
+    """``"name:a.b=1;c.d=2"`` -> ("name", ["a.b=1", "c.d=2"]) (overrides as for ``--set``)."""
+    name, _, ov = spec.partition(":")
+    return name, [o for o in ov.split(";") if o]
+
+
+def emit_row(row: dict, out: str | None) -> None:
+    """Print a result row as JSON and, with ``out``, append it to that JSON-lines file."""
+    print(json.dumps(row), flush=True)
+    if out:
+        with open(out, "a") as f:
+            f.write(json.dumps(row) + "\n")
