@@ -34,7 +34,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from timing import timed
+from timing import parse_variant, timed
 from vags_jax import config as C
 from vags_jax.env import VagsEnv
 from vags_jax.evaluate import min_width_grasp
@@ -148,28 +148,35 @@ def main(argv=None):
     p.add_argument("--loop", type=int, default=0, metavar="K",
                    help="also time K iterations of the steady-state training loop (0: skip)")
     p.add_argument("--only-loop", action="store_true", help="time the loop only")
+    p.add_argument("--variant", action="append", default=[], metavar="NAME:A=1;B=2",
+                   help="run these named override sets (on top of --set) one after the other "
+                        "in this process; repeat the flag; default: one run with --set only")
     p.add_argument("--out", default=None, help="write the rows as JSON here")
     args = p.parse_args(argv)
 
     rows = []
     print(f"device: {jax.devices()[0].device_kind} ({jax.default_backend()}), "
           f"jax {jax.__version__}, {platform.node()}", flush=True)
+    variants = [parse_variant(v) for v in args.variant] or [("", [])]
     for impl in args.impl:
         for b in args.worlds:
-            cfg = C.replace(C.preset(args.config), **C.parse_overrides(args.set),
-                            **{"sim.impl": impl, "camera.renderer": args.renderer})
-            try:
-                row = bench_one(cfg, b, args.objects, args.repeats, args.loop, args.only_loop)
-            except Exception as e:  # report and continue with the other settings
-                print(f"impl={impl} worlds={b}: FAILED {type(e).__name__}: {str(e)[:400]}", flush=True)
-                continue
-            rows.append(row)
-            print(json.dumps(row), flush=True)
-    print("\n| impl | renderer | worlds | objects | image | heightmaps/s | grasp attempts/s (reset+render+hm+grasp) | grasps/s (no reset) | env-steps/s | loop: grasp attempts/s | loop: resetting | loop: success | loop: lost / attempt |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+            for name, ov in variants:
+                cfg = C.replace(C.preset(args.config), **C.parse_overrides(args.set + ov),
+                                **{"sim.impl": impl, "camera.renderer": args.renderer})
+                try:
+                    row = bench_one(cfg, b, args.objects, args.repeats, args.loop, args.only_loop)
+                except Exception as e:  # report and continue with the other settings
+                    print(f"impl={impl} worlds={b} variant={name!r}: FAILED {type(e).__name__}: "
+                          f"{str(e)[:400]}", flush=True)
+                    continue
+                row = {"variant": name, "overrides": args.set + ov, **row}
+                rows.append(row)
+                print(json.dumps(row), flush=True)
+    print("\n| variant | impl | renderer | worlds | objects | image | heightmaps/s | grasp attempts/s (reset+render+hm+grasp) | grasps/s (no reset) | env-steps/s | loop: grasp attempts/s | loop: resetting | loop: success | loop: lost / attempt |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         g = lambda k, f="{:,.0f}": f.format(r[k]) if k in r else "-"  # noqa: E731
-        print(f"| {r['impl']} | {r['renderer']} | {r['worlds']} | {r['objects']} | {r['image']} | "
+        print(f"| {r['variant'] or '-'} | {r['impl']} | {r['renderer']} | {r['worlds']} | {r['objects']} | {r['image']} | "
               f"{g('heightmaps_per_s')} | {g('attempts_per_s')} | {g('grasps_per_s')} | "
               f"{g('env_steps_per_s_in_attempt')} | {g('loop_attempts_per_s')} | "
               f"{g('loop_reset_share', '{:.1%}')} | {g('loop_success', '{:.1%}')} | "

@@ -548,6 +548,22 @@ class WarpGeometry:
         return WarpGeometry(mx, ctx, d, cid, n_worlds, int(m.ngeom))
 
     def render(self, geom_xpos, geom_xmat, geom_rgb, cam_pose, cam_cfg: Camera) -> RenderOutput:
+        b = geom_xpos.shape[0]
+        depth, seg = self.depth_and_segmentation(geom_xpos, geom_xmat, cam_pose, cam_cfg)
+        cos = normals_from_depth(depth, cam_cfg)
+        gid = jnp.where(seg >= 0, seg, -1).astype(jnp.int32)
+        shade = AMBIENT + (1.0 - AMBIENT) * cos
+        color = jnp.take_along_axis(
+            jnp.asarray(geom_rgb, jnp.uint8).astype(jnp.float32),
+            jnp.maximum(gid, 0).reshape(b, -1)[..., None],
+            axis=1,
+        ).reshape(depth.shape + (3,)) * shade[..., None]
+        rgb = jnp.where((gid >= 0)[..., None], jnp.clip(jnp.round(color), 0, 255), 0).astype(jnp.uint8)
+        return RenderOutput(depth.astype(jnp.float32), rgb, gid, cos)
+
+    def depth_and_segmentation(self, geom_xpos, geom_xmat, cam_pose, cam_cfg: Camera):
+        """The Warp renderer's own part of `render`: (depth (B, h, w) float32 m, 0 = nothing
+        hit, seg (B, h, w) geom id or -1)."""
         from mujoco import mjx
 
         b = geom_xpos.shape[0]
@@ -574,13 +590,4 @@ class WarpGeometry:
         depth = mjx.get_depth(ctx, 0, depth_raw, cam_cfg.far)[..., 0] * cam_cfg.far
         seg = mjx.get_segmentation(ctx, 0, seg_raw)
         depth = jnp.where((depth >= cam_cfg.near) & (depth <= cam_cfg.far) & (seg >= 0), depth, 0.0)
-        cos = normals_from_depth(depth, cam_cfg)
-        gid = jnp.where(seg >= 0, seg, -1).astype(jnp.int32)
-        shade = AMBIENT + (1.0 - AMBIENT) * cos
-        color = jnp.take_along_axis(
-            jnp.asarray(geom_rgb, jnp.uint8).astype(jnp.float32),
-            jnp.maximum(gid, 0).reshape(b, -1)[..., None],
-            axis=1,
-        ).reshape(depth.shape + (3,)) * shade[..., None]
-        rgb = jnp.where((gid >= 0)[..., None], jnp.clip(jnp.round(color), 0, 255), 0).astype(jnp.uint8)
-        return RenderOutput(depth.astype(jnp.float32), rgb, gid, cos)
+        return depth, seg
