@@ -254,6 +254,12 @@ def test_warp_without_warp_lang_is_a_clear_error(cfg, scene):
         Simulator(replace(cfg, **{"sim.impl": "warp"}), scene)
 
 
+def test_long_time_step_with_impl_jax_warns(cfg, scene):
+    """MJX jax pried the pads open at 4 ms: a step above 2 ms with impl "jax" is not silent."""
+    with pytest.warns(UserWarning, match="sim.timestep"):
+        Simulator(replace(cfg, **{"sim.timestep": 0.004}), scene)
+
+
 def test_reset_and_grasp_trace_inside_an_outer_jit(sim):
     """Usable in a jitted training loop with traced n_objects (shape-only, nothing compiled)."""
     B = 3

@@ -46,3 +46,23 @@ def test_warp_buffers_did_not_overflow(outcomes):
     st, _ = outcomes["warp"]
     check_overflow(st)  # raises with the worlds and the setting to change
     assert not np.asarray(st.error).any()
+
+
+def test_gpu_preset_physics_keeps_the_scripted_outcomes():
+    """The ``gpu`` preset's physics settings (5 ms step, solver cap 5) on MuJoCo Warp: correct
+    cube grasps still succeed, empty spots and wrong-axis cuboid grasps still fail, and its
+    step count is 2.5x smaller than the 2 ms default's."""
+    from vags_jax.config import preset
+
+    g = preset("gpu").sim
+    cfg = tiny_config(**{"sim.impl": "warp", "sim.timestep": g.timestep, "sim.iterations": g.iterations})
+    sim = Simulator(cfg, build_scene(cfg))
+    default = Simulator(tiny_config(**{"sim.impl": "warp"}), build_scene(tiny_config()))
+    assert sim.n_grasp_steps * 2.4 < default.n_grasp_steps
+    sc = scenarios(N_CUBE, N_EMPTY, N_LONG, sim.P, cfg, seed=2)
+    state = sim.set_objects(sim.empty(sc["pos"].shape[0]), sc["pos"], sc["quat"], sc["active"])
+    new_state, res = sim.grasp_at(state, sc["position"], sc["yaw"])
+    expected = np.r_[np.ones(N_CUBE, bool), np.zeros(N_EMPTY + N_LONG, bool)]
+    np.testing.assert_array_equal(np.asarray(res.success), expected)
+    check_overflow(new_state)
+    assert not np.asarray(new_state.error).any()

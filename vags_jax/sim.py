@@ -73,7 +73,10 @@ Buffers and failures (never silently accepted):
   Solver note: with elliptic cones, impratio 10 and a 2 ms step, MuJoCo C needs
   ``Sim.ls_iterations`` >= 20 (at 8-12 landing blocks gain energy, get launched or blow up to
   NaN); ``Sim.iterations`` is capped at 10 (at 5 MJX jax launched 1.3 % of dropped objects off
-  the table).  A 4 ms step made wrong-axis cuboid grasps succeed, so the step stays at 2 ms.
+  the table).  Time step: under MJX jax a 4 ms step let the pads be pried open on wrong-axis
+  cuboid grasps (they "succeeded"), so the default stays at 2 ms and a longer step with impl
+  "jax" warns; MuJoCo Warp (impl "warp") gave the same scripted outcomes and heuristic success
+  at 4 and 5 ms, and the ``gpu`` preset uses 5 ms (bench/RESULTS.md, "fourth pass").
   Only NaNs and tunnelling are flagged (``error``); objects launched out of the workspace are
   deactivated (counted as lost by the evaluation), so keep ls_iterations at 20.
   ``check_overflow(state)`` (host side, between jitted calls) raises ``RuntimeError`` naming
@@ -106,6 +109,8 @@ SPAWN_GAP = 0.005  # m between bounding spheres of stacked spawn poses
 # pads reach finger_stroke / 2 + 8 mm along the closing axis and 12 mm across it; the palm is
 # narrower).
 REACH_MARGIN = 0.02
+# Longest time step whose grasp outcomes were checked under MJX jax (see "Time step" above).
+JAX_MAX_TIMESTEP = 0.002
 
 
 @struct.dataclass
@@ -205,6 +210,12 @@ class Simulator:
         self.impl = cfg.sim.impl
         if self.impl == "warp":
             _require_warp()
+        elif cfg.sim.timestep > JAX_MAX_TIMESTEP:
+            warnings.warn(
+                f"sim.timestep = {cfg.sim.timestep} s with impl 'jax': MJX jax let the finger pads "
+                f"be pried open at 4 ms (wrong-axis cuboid grasps succeeded); use "
+                f"sim.timestep={JAX_MAX_TIMESTEP} with impl 'jax' (longer steps were checked "
+                "only on impl 'warp')", stacklevel=2)
         self.mx = mjx.put_model(m, impl=self.impl)
         if self.impl == "warp":
             # MuJoCo Warp prints from its kernels on every step that hits a limit; we read the
