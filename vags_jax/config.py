@@ -109,6 +109,9 @@ class Sim:
     """Physics settings.  ``impl`` is MJX's backend: "jax" (any device) or "warp" (GPU)."""
 
     impl: str = "jax"
+    # Seconds per physics step.  2 ms for MJX jax (a longer step warns: at 4 ms its pads were
+    # pried open on wrong-axis grasps); MuJoCo Warp kept the same grasp outcomes at 4-6 ms, and
+    # the ``gpu`` preset uses 5 ms (bench/RESULTS.md, "fourth pass").
     timestep: float = 0.002
     # Newton solver iterations.  A lower cap is faster on the H100 (bench/RESULTS.md, "physics
     # profile"); at 5, MJX jax launched 1.3 % of dropped objects off the table (10: 0.3 %, as 20).
