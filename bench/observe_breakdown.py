@@ -24,7 +24,6 @@ import jax.numpy as jnp
 import numpy as np
 
 from timing import emit_row, timed
-from vags_jax import camera as cam_lib
 from vags_jax import config as C
 from vags_jax import heightmap, render
 from vags_jax.env import VagsEnv
@@ -33,12 +32,7 @@ from vags_jax.env import VagsEnv
 def height_only(depth, cam_pose, cam_cfg, ws_cfg):
     """The height half of ``heightmap._scatter``: (B, H, W) float32."""
     b, n_hm = depth.shape[0], ws_cfg.heightmap_px
-    pts = cam_lib.backproject(depth, cam_cfg, cam_pose).reshape(b, -1, 3)
-    rc = cam_lib.world_xy_to_pixel(pts[..., :2], ws_cfg)
-    valid = (depth.reshape(b, -1) > 0) & cam_lib.in_workspace(rc, ws_cfg)
-    flat = jnp.arange(b)[:, None] * n_hm * n_hm + rc[..., 0] * n_hm + rc[..., 1]
-    flat = jnp.where(valid, flat, b * n_hm * n_hm).reshape(-1)
-    h = jnp.maximum(pts[..., 2] - ws_cfg.table_z, 0.0).reshape(-1)
+    flat, h, _ = heightmap.point_cells(depth, cam_pose, cam_cfg, ws_cfg)
     return jnp.zeros(b * n_hm * n_hm + 1).at[flat].max(h)[:-1].reshape(b, n_hm, n_hm)
 
 

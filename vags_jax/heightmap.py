@@ -22,8 +22,10 @@ from vags_jax import camera as cam_lib
 from vags_jax.config import Camera, Workspace
 
 
-def _scatter(depth, rgb, cam_pose, cam_cfg: Camera, ws_cfg: Workspace):
-    """Batched scatter-max; see `heightmaps`."""
+def point_cells(depth, cam_pose, cam_cfg: Camera, ws_cfg: Workspace):
+    """Where each depth pixel lands: (flat (B*h*w,) int32 cell index in one index space over the
+    batch, B*H*W = a dump cell for missing / out-of-workspace points; height (B*h*w,) float32 m
+    above the table, >= 0; valid (B, h*w) bool)."""
     b = depth.shape[0]
     n_hm = ws_cfg.heightmap_px
     cells = n_hm * n_hm
@@ -31,10 +33,16 @@ def _scatter(depth, rgb, cam_pose, cam_cfg: Camera, ws_cfg: Workspace):
     rc = cam_lib.world_xy_to_pixel(pts[..., :2], ws_cfg)  # (B, N, 2) [row, col]
     valid = (depth.reshape(b, -1) > 0) & cam_lib.in_workspace(rc, ws_cfg)
     height = jnp.maximum(pts[..., 2] - ws_cfg.table_z, 0.0)
-    # One flat index space for the whole batch; invalid points go to a dump cell at the end.
     flat = jnp.arange(b)[:, None] * cells + rc[..., 0] * n_hm + rc[..., 1]
-    flat = jnp.where(valid, flat, b * cells).reshape(-1)
-    height = height.reshape(-1)
+    return jnp.where(valid, flat, b * cells).reshape(-1), height.reshape(-1), valid
+
+
+def _scatter(depth, rgb, cam_pose, cam_cfg: Camera, ws_cfg: Workspace):
+    """Batched scatter-max; see `heightmaps`."""
+    b = depth.shape[0]
+    n_hm = ws_cfg.heightmap_px
+    cells = n_hm * n_hm
+    flat, height, valid = point_cells(depth, cam_pose, cam_cfg, ws_cfg)
     hmax = jnp.zeros(b * cells + 1, jnp.float32).at[flat].max(height)
     # The colour of the highest point: the largest point index among the cell's maxima.
     n = height.shape[0]
