@@ -1,4 +1,4 @@
-"""Config: grasp-phase settings are validated with messages that name the field."""
+"""Config: settings are validated with messages that name the field."""
 import pytest
 
 from vags_jax import config as C
@@ -14,3 +14,9 @@ def test_descent_clearance_rejects_bad_values(bad):
     with pytest.raises(ValueError, match=r"Grasp\.descent_clearance.*null/None.*0\.005"):
         C.replace(C.Config(), **{"grasp.descent_clearance": bad})
 
+
+
+def test_sleep_needs_impl_warp():
+    assert C.replace(C.Config(), **{"sim.impl": "warp", "sim.sleep": True}).sim.sleep
+    with pytest.raises(ValueError, match=r"Sim\.sleep = True needs impl 'warp'.*sim\.sleep=false"):
+        C.replace(C.Config(), **{"sim.sleep": True})  # default impl "jax"

@@ -66,3 +66,22 @@ def test_gpu_preset_physics_keeps_the_scripted_outcomes():
     np.testing.assert_array_equal(np.asarray(res.success), expected)
     check_overflow(new_state)
     assert not np.asarray(new_state.error).any()
+
+
+def test_sleeping_objects_wake_when_teleported():
+    """``sim.sleep``: a cube at rest falls asleep (MuJoCo Warp stops simulating it, and contacts
+    between sleeping bodies are skipped); teleporting it into the air must wake its world, or it
+    would hang where it was put."""
+    from grasp_scenarios import CUBE
+
+    cfg = tiny_config(**{"sim.impl": "warp", "sim.timestep": 0.005, "sim.iterations": 5, "sim.sleep": True})
+    sim = Simulator(cfg, build_scene(cfg))
+    sc = scenarios(2, 0, 0, sim.P, cfg, seed=2)
+    state = sim.settle(sim.set_objects(sim.empty(2), sc["pos"], sc["quat"], sc["active"]), 0.5)
+    cube_tree = sim.scene.mj_model.dof_treeid[sim.scene.object_dof_adr[CUBE]]
+    assert (np.asarray(state.data._impl.tree_asleep)[:, cube_tree] >= 0).all()  # noqa: SLF001
+    pos = np.asarray(sc["pos"]).copy()
+    pos[:, CUBE, 2] = 0.15
+    state = sim.settle(sim.set_objects(state, pos, sc["quat"], sc["active"]), 0.5)
+    np.testing.assert_allclose(np.asarray(sim.object_positions(state))[:, CUBE, 2], 0.025, atol=0.002)
+    assert not np.asarray(state.error).any()

@@ -132,6 +132,15 @@ class Sim:
     # constraint rows); warp: naconmax = B * this when naconmax is None.
     # None -> 20 * scene.max_objects + 56 (see sim.py).  Overflow is flagged in SimState.overflow.
     contacts_per_world: Optional[int] = None
+    # MuJoCo sleeping (impl "warp", Newton solver): a body tree at rest (speed below
+    # ``sleep_tolerance``, m/s or rad/s scaled by its size) for a few steps stops being simulated
+    # and its contacts with other sleeping trees are not computed, until something awake touches
+    # it.  Teleports (new scenes, parked objects) wake their worlds.  MJX jax has no sleeping.
+    # Off in every preset: in the H100 training loop it kept the heuristic's success but made
+    # 0.90x the attempts/s (bench/RESULTS.md, "fifth pass"); the island bookkeeping run on
+    # every step costs more than the contacts and solver rows that sleeping bodies save.
+    sleep: bool = False
+    sleep_tolerance: float = 1e-3
 
     def __post_init__(self):
         _check(
@@ -143,6 +152,12 @@ class Sim:
         _check(self.ls_iterations >= 1, "Sim.ls_iterations must be >= 1")
         _check(self.solver in ("newton", "cg"), f"Sim.solver must be 'newton' or 'cg', got {self.solver!r}")
         _check(0 <= self.tolerance < 1, f"Sim.tolerance must be in [0, 1), got {self.tolerance}")
+        _check(
+            not self.sleep or (self.impl == "warp" and self.solver == "newton"),
+            f"Sim.sleep = True needs impl 'warp' and solver 'newton' (MuJoCo Warp sleeps, MJX jax "
+            f"does not), got impl {self.impl!r}, solver {self.solver!r}; set sim.sleep=false",
+        )
+        _check(self.sleep_tolerance > 0, f"Sim.sleep_tolerance must be > 0, got {self.sleep_tolerance}")
 
 
 @dataclass(frozen=True)

@@ -254,6 +254,9 @@ def build_spec(cfg: Config) -> mujoco.MjSpec:
     opt.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
     opt.solver = {"newton": mujoco.mjtSolver.mjSOL_NEWTON, "cg": mujoco.mjtSolver.mjSOL_CG}[cfg.sim.solver]
     opt.tolerance = cfg.sim.tolerance
+    if cfg.sim.sleep:
+        opt.enableflags |= mujoco.mjtEnableBit.mjENBL_SLEEP
+        opt.sleep_tolerance = cfg.sim.sleep_tolerance
 
     tz = cfg.workspace.table_z
     cx, cy = cfg.workspace.center

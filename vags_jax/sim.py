@@ -91,6 +91,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 from flax import struct
+import mujoco
 from mujoco import mjx
 
 from vags_jax.config import Config
@@ -111,6 +112,8 @@ SPAWN_GAP = 0.005  # m between bounding spheres of stacked spawn poses
 REACH_MARGIN = 0.02
 # Longest time step whose grasp outcomes were checked under MJX jax (see "Time step" above).
 JAX_MAX_TIMESTEP = 0.002
+# MuJoCo's "fully awake" value of a tree's sleep counter (tree_asleep < 0: awake; >= 0: asleep).
+TREE_AWAKE = -(1 + mujoco.mjMINAWAKE)
 
 
 @struct.dataclass
@@ -343,6 +346,19 @@ class Simulator:
             qvel=jnp.where(pin_v, 0.0, d.qvel),
         )
 
+    def _wake(self, d: mjx.Data, worlds) -> mjx.Data:
+        """Wake every body tree of the worlds where worlds (B,) bool is set (sim.sleep).
+
+        Needed after teleporting objects: a sleeping tree moved by writing qpos would stay
+        asleep where it was put (contacts between sleeping trees are not computed), and a tree
+        left resting on one that was moved away would float.
+        """
+        if not self.cfg.sim.sleep:
+            return d
+        imp = d._impl  # noqa: SLF001
+        asleep = jnp.where(worlds[:, None], TREE_AWAKE, imp.tree_asleep)
+        return d.replace(_impl=imp.replace(tree_asleep=asleep.astype(imp.tree_asleep.dtype)))
+
     def _run(self, d: mjx.Data, active, overflow, ctrl_fn, xs):
         """Step all worlds once per element of xs (leading dim T); ctrl_fn(x) -> (B, nu).
 
@@ -376,6 +392,7 @@ class Simulator:
         error = state.error | ~finite | (state.active & below).any(axis=1)
         active = state.active & inside & ~below
         pin_q, pin_v = self._pin_masks(active)
+        d = self._wake(d, (active != state.active).any(axis=1))
         d = self._kinematics(self._pin(d, pin_q, pin_v))
         return state.replace(data=d, active=active, error=error)
 
@@ -429,6 +446,7 @@ class Simulator:
             qvel=d.qvel.at[:, self._obj_vidx].set(jnp.where(m3, 0.0, d.qvel[:, self._obj_vidx])),
             qacc_warmstart=jnp.where(mask[:, None], 0.0, d.qacc_warmstart),
         )
+        d = self._wake(d, mask)
         ids = self.scene.object_geom_ids
         return state.replace(
             data=d,
@@ -625,7 +643,8 @@ class Simulator:
     def _park_objects_impl(self, state: SimState, mask) -> SimState:
         active = state.active & ~mask
         pin_q, pin_v = self._pin_masks(active)
-        d = self._kinematics(self._pin(state.data, pin_q, pin_v))
+        d = self._wake(state.data, mask.any(axis=1))
+        d = self._kinematics(self._pin(d, pin_q, pin_v))
         return state.replace(data=d, active=active)
 
     def park_objects(self, state: SimState, mask) -> SimState:
@@ -649,7 +668,8 @@ class Simulator:
         qpos = state.data.qpos.at[:, self._obj_qidx].set(jnp.concatenate([pos, quat], axis=-1))
         qvel = state.data.qvel.at[:, self._obj_vidx].set(0.0)
         pin_q, pin_v = self._pin_masks(active)
-        d = self._kinematics(self._pin(state.data.replace(qpos=qpos, qvel=qvel), pin_q, pin_v))
+        d = self._wake(state.data.replace(qpos=qpos, qvel=qvel), jnp.ones((state.n_worlds,), bool))
+        d = self._kinematics(self._pin(d, pin_q, pin_v))
         return state.replace(data=d, active=active, n_objects=active.sum(axis=1).astype(jnp.int32))
 
     def set_objects(self, state: SimState, pos, quat, active) -> SimState:
