@@ -12,11 +12,17 @@ calls after a compiling one):
   * heightmaps  : ``heightmap.heightmaps`` of those images (back-projection, scatter-max of
                   heights, colour of the highest point);
   * height_only : the same back-projection and the height scatter-max alone (no colour pass);
-  * observe     : ``VagsEnv.observe_global`` of all worlds (groups rendered one after another).
+  * observe     : ``VagsEnv.observe_global`` of all worlds (groups rendered one after another);
+  * warp_ffi_calls_in_observe : (Warp renderer only) how many MuJoCo Warp FFI calls the
+                  compiled observe program holds.  Expected 2: one BVH refit and one render
+                  (once per group when the groups run in a loop).  3 means XLA has cloned the
+                  render into a fusion of its sliced inputs and kept the original, so every
+                  group is rendered twice (see ``WarpGeometry.depth_and_segmentation``).
 """
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 
 import jax
@@ -77,6 +83,9 @@ def main(argv=None):
         t_h, _ = timed(hm_fn, depth, im, pose, repeats=args.repeats)
         t_ho, _ = timed(ho_fn, depth, pose, repeats=args.repeats)
         t_o, _ = timed(obs_fn, state.sim, repeats=args.repeats)
+        if args.renderer == "warp":
+            hlo = obs_fn.lower(state.sim).compile().as_text()
+            extra["warp_ffi_calls_in_observe"] = len(re.findall(r'custom_call_target="jax_callable[^"]*"', hlo))
         emit_row({
             "impl": args.impl, "renderer": args.renderer, "worlds": b, "render_group": g,
             "image": f"{cam.width}x{cam.height}", "heightmap": ws.heightmap_px, "overrides": args.set,

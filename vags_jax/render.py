@@ -569,6 +569,12 @@ class WarpGeometry:
         b = geom_xpos.shape[0]
         if b != self.n_worlds:
             raise ValueError(f"warp render context was made for {self.n_worlds} worlds, got {b}")
+        # Inside a loop over render groups (VagsEnv.observe's lax.map), the inputs are slices
+        # of the whole batch.  XLA on the GPU then fuses those slices into a copy of the
+        # render's FFI call and keeps the original too, because the call has side effects:
+        # every group was rendered twice (an H100 trace showed two 57 ms render kernels per
+        # group).  Materialising the inputs behind a barrier leaves nothing to fuse.
+        geom_xpos, geom_xmat, cam_pose = jax.lax.optimization_barrier((geom_xpos, geom_xmat, cam_pose))
         # MuJoCo cameras look along -z with y up: R_mj = R_cv @ diag(1, -1, -1).
         rot_mj = cam_pose[:, :3, :3] * jnp.array([1.0, -1.0, -1.0])
         d = self.template.replace(
