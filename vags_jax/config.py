@@ -122,7 +122,7 @@ class Sim:
     # blocks land in MuJoCo C (objects launched, NaNs); 20 is stable.
     iterations: int = 10
     ls_iterations: int = 20
-    impratio: float = 10.0
+    impratio: float = 10.0  # friction-to-normal impedance ratio (elliptic cones); ``tiny`` uses 1
     solver: str = "newton"  # MuJoCo constraint solver: "newton" or "cg"
     tolerance: float = 1e-8  # MuJoCo opt.tolerance: the solver stops early below this improvement
     # Contact / constraint buffers.  None -> sized from the scene (see sim.py).
@@ -471,6 +471,12 @@ def tiny() -> Config:
         # rocking when the first view was taken, and the heuristic's first grasps succeeded in
         # 25 of 48 fresh scenes instead of 37 of 48 (MJX jax, CPU; bench/RESULTS.md).
         scene=Scene(max_objects=3, shapes=("cube", "cuboid_long", "cuboid_tall"), copies_per_shape=1),
+        # impratio 1 instead of 10: under MJX jax (this preset's CPU physics) the heuristic's
+        # first grasps in fresh scenes sent 4 of 48 worlds to NaN with impratio 10 (two draws),
+        # 0 of 48 with 1, and succeeded in 44-45 instead of 37; the scripted cube / empty /
+        # wrong-axis outcomes are unchanged (bench/RESULTS.md, "fifth pass").  The default
+        # Config (the unit tests) and the GPU presets keep 10, where it was measured.
+        sim=Sim(impratio=1.0),
         camera=Camera(width=128, height=96, fx=123.7, fy=123.7),
         net=Net(trunk="small", small_width=8),
         dqn=DQN(batch_size=8, optimizer="adam", learning_rate=1e-3, target_update_period=20),

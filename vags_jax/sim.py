@@ -77,6 +77,9 @@ Buffers and failures (never silently accepted):
   cuboid grasps (they "succeeded"), so the default stays at 2 ms and a longer step with impl
   "jax" warns; MuJoCo Warp (impl "warp") gave the same scripted outcomes and heuristic success
   at 4 and 5 ms, and the ``gpu`` preset uses 5 ms (bench/RESULTS.md, "fourth pass").
+  MJX jax with impratio 10 sent about 8 % of fresh worlds to NaN on their first heuristic
+  grasp (pads pried open on a turning cuboid); with impratio 1, none in 96: the CPU ``tiny``
+  preset uses 1 (bench/RESULTS.md, "fifth pass").
   Only NaNs and tunnelling are flagged (``error``); objects launched out of the workspace are
   deactivated (counted as lost by the evaluation), so keep ls_iterations at 20.
   ``check_overflow(state)`` (host side, between jitted calls) raises ``RuntimeError`` naming
