@@ -15,7 +15,6 @@ def test_descent_clearance_rejects_bad_values(bad):
         C.replace(C.Config(), **{"grasp.descent_clearance": bad})
 
 
-
 def test_sleep_needs_impl_warp():
     assert C.replace(C.Config(), **{"sim.impl": "warp", "sim.sleep": True}).sim.sleep
     with pytest.raises(ValueError, match=r"Sim\.sleep = True needs impl 'warp'.*sim\.sleep=false"):

@@ -362,6 +362,12 @@ class Simulator:
         asleep = jnp.where(worlds[:, None], TREE_AWAKE, imp.tree_asleep)
         return d.replace(_impl=imp.replace(tree_asleep=asleep.astype(imp.tree_asleep.dtype)))
 
+    def _place(self, d: mjx.Data, active, woken) -> mjx.Data:
+        """After object qpos were written: wake the worlds where woken (B,) bool is set,
+        pin the parked bodies (~active (B, P)) and evaluate the poses for the renderer."""
+        pin_q, pin_v = self._pin_masks(active)
+        return self._kinematics(self._pin(self._wake(d, woken), pin_q, pin_v))
+
     def _run(self, d: mjx.Data, active, overflow, ctrl_fn, xs):
         """Step all worlds once per element of xs (leading dim T); ctrl_fn(x) -> (B, nu).
 
@@ -394,9 +400,7 @@ class Simulator:
         finite = jnp.isfinite(d.qpos).all(axis=1) & jnp.isfinite(d.qvel).all(axis=1)
         error = state.error | ~finite | (state.active & below).any(axis=1)
         active = state.active & inside & ~below
-        pin_q, pin_v = self._pin_masks(active)
-        d = self._wake(d, (active != state.active).any(axis=1))
-        d = self._kinematics(self._pin(d, pin_q, pin_v))
+        d = self._place(d, active, (active != state.active).any(axis=1))
         return state.replace(data=d, active=active, error=error)
 
     # ------------------------------------------------------------------ reset
@@ -645,9 +649,7 @@ class Simulator:
 
     def _park_objects_impl(self, state: SimState, mask) -> SimState:
         active = state.active & ~mask
-        pin_q, pin_v = self._pin_masks(active)
-        d = self._wake(state.data, mask.any(axis=1))
-        d = self._kinematics(self._pin(d, pin_q, pin_v))
+        d = self._place(state.data, active, mask.any(axis=1))
         return state.replace(data=d, active=active)
 
     def park_objects(self, state: SimState, mask) -> SimState:
@@ -670,9 +672,7 @@ class Simulator:
     def _set_objects_impl(self, state, pos, quat, active):
         qpos = state.data.qpos.at[:, self._obj_qidx].set(jnp.concatenate([pos, quat], axis=-1))
         qvel = state.data.qvel.at[:, self._obj_vidx].set(0.0)
-        pin_q, pin_v = self._pin_masks(active)
-        d = self._wake(state.data.replace(qpos=qpos, qvel=qvel), jnp.ones((state.n_worlds,), bool))
-        d = self._kinematics(self._pin(d, pin_q, pin_v))
+        d = self._place(state.data.replace(qpos=qpos, qvel=qvel), active, jnp.ones((state.n_worlds,), bool))
         return state.replace(data=d, active=active, n_objects=active.sum(axis=1).astype(jnp.int32))
 
     def set_objects(self, state: SimState, pos, quat, active) -> SimState:
