@@ -19,3 +19,13 @@ def test_sleep_needs_impl_warp():
     assert C.replace(C.Config(), **{"sim.impl": "warp", "sim.sleep": True}).sim.sleep
     with pytest.raises(ValueError, match=r"Sim\.sleep = True needs impl 'warp'.*sim\.sleep=false"):
         C.replace(C.Config(), **{"sim.sleep": True})  # default impl "jax"
+
+
+@pytest.mark.parametrize("field,bad,msg", [
+    ("sim.cone", "round", r"Sim\.cone must be 'elliptic' or 'pyramidal'"),
+    ("sim.ccd_iterations", 0, r"Sim\.ccd_iterations must be an int >= 1"),
+    ("sim.ccd_iterations", 2.5, r"Sim\.ccd_iterations must be an int >= 1"),
+])
+def test_collision_and_cone_settings_are_checked(field, bad, msg):
+    with pytest.raises(ValueError, match=msg):
+        C.replace(C.Config(), **{field: bad})

@@ -80,6 +80,21 @@ def test_solver_and_gripper_settings(scene):
     assert m.actuator_ctrlrange[act, 1] * 2 == pytest.approx(cfg.grasp.finger_stroke)
 
 
+def test_collision_options_reach_the_model():
+    """Sim.cone / ccd_iterations / native_ccd / multi_ccd become MuJoCo options (the defaults
+    leave MuJoCo's own: elliptic cones, 35 CCD iterations, native and multi-contact CCD on)."""
+    from vags_jax import config as C
+
+    base = build_scene(C.tiny()).mj_model
+    assert base.opt.cone == mujoco.mjtCone.mjCONE_ELLIPTIC and base.opt.ccd_iterations == 35
+    assert base.opt.disableflags & (mujoco.mjtDisableBit.mjDSBL_NATIVECCD | mujoco.mjtDisableBit.mjDSBL_MULTICCD) == 0
+    m = build_scene(C.replace(C.tiny(), **{"sim.cone": "pyramidal", "sim.ccd_iterations": 12,
+                                           "sim.native_ccd": False, "sim.multi_ccd": False})).mj_model
+    assert m.opt.cone == mujoco.mjtCone.mjCONE_PYRAMIDAL and m.opt.ccd_iterations == 12
+    assert m.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_NATIVECCD
+    assert m.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_MULTICCD
+
+
 def test_unknown_shape_is_rejected():
     cfg = replace(Config(), **{"scene.shapes": ("cube", "teapot"), "scene.copies_per_shape": 5})
     with pytest.raises(ValueError, match="teapot"):

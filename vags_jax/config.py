@@ -141,6 +141,21 @@ class Sim:
     # every step costs more than the contacts and solver rows that sleeping bodies save.
     sleep: bool = False
     sleep_tolerance: float = 1e-3
+    # Friction cone: "elliptic" (default) or "pyramidal".  Pyramidal made MuJoCo Warp's step
+    # 1.33x faster on the H100, but objects slipped out of the pads: the heuristic's success in
+    # 10-object scenes fell from 96 % to 83 % (impratio 10), 52 % (100) and 33 % (1)
+    # (bench/RESULTS.md, "sixth pass").  Kept for research; no preset uses it.
+    cone: str = "elliptic"
+    # Convex collision detection (MuJoCo's opt.ccd_iterations: GJK / EPA iteration cap; 35 is
+    # MuJoCo's default; 10 changed nothing measurable).  ``native_ccd`` False sets
+    # mjDSBL_NATIVECCD: box-box pairs use MuJoCo's primitive box-box test instead of the general
+    # convex one (meshes are always convex).  Impl "warp" and
+    # MuJoCo C honour both; MJX jax has its own collision functions and ignores them.
+    ccd_iterations: int = 35
+    native_ccd: bool = True
+    # ``multi_ccd`` False sets mjDSBL_MULTICCD: convex pairs get one contact point, not a patch.
+    # Faster, but resting meshes rock: success 84 % and 14x the objects lost (sixth pass).
+    multi_ccd: bool = True
 
     def __post_init__(self):
         _check(
@@ -158,6 +173,11 @@ class Sim:
             f"does not), got impl {self.impl!r}, solver {self.solver!r}; set sim.sleep=false",
         )
         _check(self.sleep_tolerance > 0, f"Sim.sleep_tolerance must be > 0, got {self.sleep_tolerance}")
+        _check(self.cone in ("elliptic", "pyramidal"),
+               f"Sim.cone must be 'elliptic' or 'pyramidal', got {self.cone!r}")
+        _check(isinstance(self.ccd_iterations, int) and not isinstance(self.ccd_iterations, bool)
+               and self.ccd_iterations >= 1,
+               f"Sim.ccd_iterations must be an int >= 1, got {self.ccd_iterations!r}")
 
 
 @dataclass(frozen=True)

@@ -251,7 +251,13 @@ def build_spec(cfg: Config) -> mujoco.MjSpec:
     opt.iterations = cfg.sim.iterations
     opt.ls_iterations = cfg.sim.ls_iterations
     opt.impratio = cfg.sim.impratio
-    opt.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+    opt.cone = {"elliptic": mujoco.mjtCone.mjCONE_ELLIPTIC,
+                "pyramidal": mujoco.mjtCone.mjCONE_PYRAMIDAL}[cfg.sim.cone]
+    opt.ccd_iterations = cfg.sim.ccd_iterations
+    if not cfg.sim.native_ccd:
+        opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_NATIVECCD
+    if not cfg.sim.multi_ccd:
+        opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_MULTICCD
     opt.solver = {"newton": mujoco.mjtSolver.mjSOL_NEWTON, "cg": mujoco.mjtSolver.mjSOL_CG}[cfg.sim.solver]
     opt.tolerance = cfg.sim.tolerance
     if cfg.sim.sleep:
