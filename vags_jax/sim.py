@@ -76,7 +76,8 @@ Buffers and failures (never silently accepted):
   the table).  Time step: under MJX jax a 4 ms step let the pads be pried open on wrong-axis
   cuboid grasps (they "succeeded"), so the default stays at 2 ms and a longer step with impl
   "jax" warns; MuJoCo Warp (impl "warp") gave the same scripted outcomes and heuristic success
-  at 4 and 5 ms, and the ``gpu`` preset uses 5 ms (bench/RESULTS.md, "fourth pass").
+  at 4, 5 and 6 ms (at 7 ms it lost 2.7x more objects), and the ``gpu`` preset uses 6 ms
+  (bench/RESULTS.md, "fourth pass" and "sixth pass").
   MJX jax with impratio 10 sent about 8 % of fresh worlds to NaN on their first heuristic
   grasp (pads pried open on a turning cuboid); with impratio 1, none in 96: the CPU ``tiny``
   preset uses 1 (bench/RESULTS.md, "fifth pass").
