@@ -55,9 +55,7 @@ def test_gpu_preset_physics_keeps_the_scripted_outcomes():
     default's."""
     from vags_jax.config import preset
 
-    g = preset("gpu").sim
-    cfg = tiny_config(**{"sim.impl": "warp", "sim.timestep": g.timestep, "sim.iterations": g.iterations,
-                         "sim.native_ccd": g.native_ccd})
+    cfg = tiny_config(sim=preset("gpu").sim)  # all of the preset's physics, whatever it holds
     sim = Simulator(cfg, build_scene(cfg))
     default = Simulator(tiny_config(**{"sim.impl": "warp"}), build_scene(tiny_config()))
     assert sim.n_grasp_steps * 2.4 < default.n_grasp_steps
