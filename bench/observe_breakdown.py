@@ -12,7 +12,11 @@ calls after a compiling one):
   * heightmaps  : ``heightmap.heightmaps`` of those images (back-projection, scatter-max of
                   heights, colour of the highest point);
   * height_only : the same back-projection and the height scatter-max alone (no colour pass);
-  * observe     : ``VagsEnv.observe_global`` of all worlds (groups rendered one after another);
+  * height_dump_cell : the same scatter with every missing / out-of-workspace point sent to
+                  one shared dump cell, as ``heightmaps`` did before the seventh pass (now they
+                  carry an out-of-range index and the scatter drops them);
+  * observe     : ``VagsEnv.observe_global`` of all worlds (groups rendered one after another;
+                  it colours only each heightmap cell's source pixel, not whole images);
   * warp_ffi_calls_in_observe : (Warp renderer only) how many MuJoCo Warp FFI calls the
                   compiled observe program holds.  Expected 2: one BVH refit and one render
                   (once per group when the groups run in a loop).  3 means XLA has cloned the
@@ -36,7 +40,14 @@ from vags_jax.env import VagsEnv
 
 
 def height_only(depth, cam_pose, cam_cfg, ws_cfg):
-    """The height half of ``heightmap._scatter``: (B, H, W) float32."""
+    """The height half of ``heightmap.height_and_source``: (B, H, W) float32."""
+    b, n_hm = depth.shape[0], ws_cfg.heightmap_px
+    flat, h, _ = heightmap.point_cells(depth, cam_pose, cam_cfg, ws_cfg)
+    return jnp.zeros(b * n_hm * n_hm).at[flat].max(h, mode="drop").reshape(b, n_hm, n_hm)
+
+
+def height_dump_cell(depth, cam_pose, cam_cfg, ws_cfg):
+    """`height_only` with the points that have no cell piled onto one extra (dump) cell."""
     b, n_hm = depth.shape[0], ws_cfg.heightmap_px
     flat, h, _ = heightmap.point_cells(depth, cam_pose, cam_cfg, ws_cfg)
     return jnp.zeros(b * n_hm * n_hm + 1).at[flat].max(h)[:-1].reshape(b, n_hm, n_hm)
@@ -74,6 +85,7 @@ def main(argv=None):
 
         hm_fn = jax.jit(lambda dep, im, pose: heightmap.heightmaps(dep, im, pose, cam, ws))
         ho_fn = jax.jit(lambda dep, pose: height_only(dep, pose, cam, ws))
+        hd_fn = jax.jit(lambda dep, pose: height_dump_cell(dep, pose, cam, ws))
         obs_fn = jax.jit(lambda s: env.observe_global(s))
         t_r, (depth, im) = timed(render_fn, xpos, xmat, rgb, pose, repeats=args.repeats)
         extra = {}
@@ -82,6 +94,7 @@ def main(argv=None):
             extra["render_raw_ms_per_group"] = 1e3 * timed(raw_fn, xpos, xmat, pose, repeats=args.repeats)[0]
         t_h, _ = timed(hm_fn, depth, im, pose, repeats=args.repeats)
         t_ho, _ = timed(ho_fn, depth, pose, repeats=args.repeats)
+        t_hd, _ = timed(hd_fn, depth, pose, repeats=args.repeats)
         obs_compiled = obs_fn.lower(state.sim).compile()  # timed, and its program inspected
         t_o, _ = timed(obs_compiled, state.sim, repeats=args.repeats)
         if args.renderer == "warp":
@@ -91,7 +104,8 @@ def main(argv=None):
             "impl": args.impl, "renderer": args.renderer, "worlds": b, "render_group": g,
             "image": f"{cam.width}x{cam.height}", "heightmap": ws.heightmap_px, "overrides": args.set,
             "render_ms_per_group": 1e3 * t_r, **extra, "heightmaps_ms_per_group": 1e3 * t_h,
-            "height_only_ms_per_group": 1e3 * t_ho, "observe_ms_all_worlds": 1e3 * t_o,
+            "height_only_ms_per_group": 1e3 * t_ho, "height_dump_cell_ms_per_group": 1e3 * t_hd,
+            "observe_ms_all_worlds": 1e3 * t_o,
             "observe_per_s": b / t_o, "render_share": t_r / (t_r + t_h),
         }, args.out)
     return 0

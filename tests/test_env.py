@@ -65,3 +65,25 @@ def test_where_worlds_keeps_shared_leaves():
     out = where_worlds(mask, a, b)
     np.testing.assert_array_equal(np.asarray(out["w"])[:, 0], [1.0, 0.0, 1.0])
     np.testing.assert_array_equal(np.asarray(out["shared"]), b["shared"])
+
+
+def test_observe_matches_colouring_the_whole_image(tiny_cfg, env, state):
+    """observe colours only each cell's source pixel; the result is that of colouring the
+    whole image (`render.render_full`) and taking the heightmaps of it."""
+    from vags_jax import heightmap, render
+
+    cfg = tiny_cfg
+    sim = state.sim
+    pose = jax.numpy.broadcast_to(jax.numpy.asarray(env.global_pose), (2, 4, 4))
+    geometry = env.geometry(2)
+
+    @jax.jit
+    def whole_image(xpos, xmat, rgb, pose):
+        out = render.render_full(geometry, xpos, xmat, rgb, pose, cfg.camera)
+        return heightmap.heightmaps(out.depth, out.rgb, pose, cfg.camera, cfg.workspace)
+
+    ref_color, ref_height = whole_image(sim.data.geom_xpos, sim.data.geom_xmat, sim.geom_rgb, pose)
+    color, height = jax.jit(env.observe)(sim, pose)
+    np.testing.assert_array_equal(np.asarray(height), np.asarray(ref_height))
+    np.testing.assert_array_equal(np.asarray(color), np.asarray(ref_color))
+    assert np.asarray(ref_color).any(axis=-1).mean() > 0.3  # the comparison is not of black images

@@ -109,3 +109,21 @@ def test_warp_backend_clear_error_without_gpu():
     m, _ = rs.load(rs.one_box_xml())
     with pytest.raises(RuntimeError, match="warp"):
         render.prepare_geometry(m, backend="warp", cam_cfg=CAM, n_worlds=2)
+
+
+def test_cos_incidence_at_matches_normals_from_depth(scene):
+    """The Warp path's colours estimate normals from depth at the heightmap's source pixels
+    only (`cos_incidence_at`): the same values as the whole-image `normals_from_depth`,
+    image borders (where the differences wrap around) and holes included."""
+    depth = scene["out"].depth.copy()
+    depth[0, 10:14, 20:30] = 0.0  # a hole
+    b, h, w = depth.shape
+    full = np.asarray(render.normals_from_depth(jnp.asarray(depth), CAM)).reshape(b, -1)
+    rng = np.random.default_rng(0)
+    pix = rng.integers(0, h * w, size=(b, 300))
+    pix[:, :4] = [0, w - 1, (h - 1) * w, h * w - 1]  # corners
+    pix[0, 4:8] = [10 * w + 20, 11 * w + 25, 9 * w + 22, 14 * w + 29]  # in and next to the hole
+    got = np.asarray(render.cos_incidence_at(jnp.asarray(depth), jnp.asarray(pix, jnp.int32), CAM))
+    want = np.take_along_axis(full, pix, axis=1)
+    np.testing.assert_allclose(got, want, atol=1e-6)
+    assert (want[0, 4:6] == 0).all() and (want > 0.5).mean() > 0.5

@@ -120,12 +120,23 @@ class VagsEnv:
         geometry = self.geometry(min(B, chunk))
 
         def one_batch(xpos, xmat, rgb, pose, k):
-            out = render.render_full(geometry, xpos, xmat, rgb, pose, cfg.camera)
-            depth = out.depth
+            clean, gid, cos = render.depth_and_segmentation(geometry, xpos, xmat, pose, cfg.camera)
+            depth = clean
             if cfg.camera.noise.enabled:
+                if cos is None:
+                    cos = render.normals_from_depth(clean, cfg.camera)
                 depth = jax.vmap(lambda kk, dd, cc: render.add_depth_noise(kk, dd[None], cc[None], cfg.camera.noise)[0])(
-                    k, depth, out.cos_incidence)
-            return heightmap.heightmaps(depth, out.rgb, pose, cfg.camera, cfg.workspace)
+                    k, depth, cos)
+            height, source = heightmap.height_and_source(depth, pose, cfg.camera, cfg.workspace)
+            # Colour only where the heightmap uses it, at each cell's source pixel: the same
+            # shading as `render.render_full`, without colouring the whole image first.
+            b = depth.shape[0]
+            pix = jnp.maximum(source.reshape(b, -1), 0)
+            g = jnp.where(source.reshape(b, -1) >= 0, jnp.take_along_axis(gid.reshape(b, -1), pix, axis=1), -1)
+            c = (jnp.take_along_axis(cos.reshape(b, -1), pix, axis=1) if cos is not None
+                 else render.cos_incidence_at(clean, pix, cfg.camera))
+            color = render.shade(g, c, rgb).reshape(height.shape + (3,))
+            return color, height
 
         args = (d.geom_xpos, d.geom_xmat, sim_state.geom_rgb, cam_pose, keys)
         if B <= chunk:

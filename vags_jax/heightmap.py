@@ -24,8 +24,8 @@ from vags_jax.config import Camera, Workspace
 
 def point_cells(depth, cam_pose, cam_cfg: Camera, ws_cfg: Workspace):
     """Where each depth pixel lands: (flat (B*h*w,) int32 cell index in one index space over the
-    batch, B*H*W = a dump cell for missing / out-of-workspace points; height (B*h*w,) float32 m
-    above the table, >= 0; valid (B, h*w) bool)."""
+    batch, B*H*W (one past the last cell, dropped by the scatters) for missing and
+    out-of-workspace points; height (B*h*w,) float32 m above the table, >= 0; valid (B, h*w) bool)."""
     b = depth.shape[0]
     n_hm = ws_cfg.heightmap_px
     cells = n_hm * n_hm
@@ -37,20 +37,45 @@ def point_cells(depth, cam_pose, cam_cfg: Camera, ws_cfg: Workspace):
     return jnp.where(valid, flat, b * cells).reshape(-1), height.reshape(-1), valid
 
 
-def _scatter(depth, rgb, cam_pose, cam_cfg: Camera, ws_cfg: Workspace):
-    """Batched scatter-max; see `heightmaps`."""
-    b = depth.shape[0]
+def height_and_source(depth, cam_pose, cam_cfg: Camera, ws_cfg: Workspace):
+    """Height heightmaps of B depth images and, per cell, the pixel whose point won it.
+
+    Args: depth (B, h, w), cam_pose (B, 4, 4) as in `heightmaps`.
+    Returns:
+      height (B, H, W) float32 m above the table (the highest point per cell, 0 where none);
+      source (B, H, W) int32 index ``row * w + col`` of the pixel (in the same world's image)
+      whose point won the cell (the largest index among equally high points), -1 where none.
+    """
+    b, h, w = depth.shape
+    if b * h * w >= 2**31:
+        raise ValueError(
+            f"heightmaps of {b} images of {h} x {w} pixels at once overflow int32 pixel indices; "
+            f"pass fewer images per call (at most {(2**31 - 1) // (h * w)}: camera.render_batch)"
+        )
     n_hm = ws_cfg.heightmap_px
-    cells = n_hm * n_hm
+    cells = b * n_hm * n_hm
     flat, height, valid = point_cells(depth, cam_pose, cam_cfg, ws_cfg)
-    hmax = jnp.zeros(b * cells + 1, jnp.float32).at[flat].max(height)
-    # The colour of the highest point: the largest point index among the cell's maxima.
-    n = height.shape[0]
-    is_top = valid.reshape(-1) & (height >= hmax[flat])
-    winner = jnp.full(b * cells + 1, -1, jnp.int32).at[flat].max(jnp.where(is_top, jnp.arange(n, dtype=jnp.int32), -1))
-    winner = winner[:-1]
-    color = jnp.where((winner >= 0)[:, None], rgb.reshape(-1, 3)[jnp.maximum(winner, 0)], 0)
-    return color.reshape(b, n_hm, n_hm, 3).astype(jnp.uint8), hmax[:-1].reshape(b, n_hm, n_hm)
+    # Points with no cell carry index `cells`, out of range: mode="drop" skips them instead of
+    # piling every one of them onto a shared dump cell.
+    hmax = jnp.zeros(cells, jnp.float32).at[flat].max(height, mode="drop")
+    top = valid.reshape(-1) & (height >= hmax.at[flat].get(mode="fill", fill_value=jnp.inf))
+    point = jnp.arange(height.shape[0], dtype=jnp.int32)
+    source = jnp.full(cells, -1, jnp.int32).at[jnp.where(top, flat, cells)].max(point, mode="drop")
+    source = source.reshape(b, -1)
+    source = jnp.where(source >= 0, source - jnp.arange(b, dtype=jnp.int32)[:, None] * (h * w), -1)
+    return hmax.reshape(b, n_hm, n_hm), source.reshape(b, n_hm, n_hm)
+
+
+def gather_at_source(values, source):
+    """Per-pixel values (B, h, w, ...) -> (B, H, W, ...) at each cell's source pixel, zero in
+    empty cells.  ``source`` (B, H, W) is from `height_and_source`."""
+    b = values.shape[0]
+    flat = values.reshape((b, -1) + values.shape[3:])
+    idx = jnp.maximum(source.reshape(b, -1), 0)
+    got = jnp.take_along_axis(flat, idx.reshape(idx.shape + (1,) * (flat.ndim - 2)), axis=1)
+    got = got.reshape(source.shape + values.shape[3:])
+    empty = (source < 0).reshape(source.shape + (1,) * (values.ndim - 3))
+    return jnp.where(empty, jnp.zeros((), values.dtype), got)
 
 
 @functools.partial(jax.jit, static_argnames=("cam_cfg", "ws_cfg"))
@@ -71,7 +96,8 @@ def heightmaps(depth, rgb, cam_pose, cam_cfg: Camera, ws_cfg: Workspace):
             f"depth images have shape {depth.shape[1:]} but the camera config is "
             f"{cam_cfg.height} x {cam_cfg.width} (height x width)"
         )
-    return _scatter(depth, jnp.asarray(rgb, jnp.uint8), jnp.asarray(cam_pose, jnp.float32), cam_cfg, ws_cfg)
+    height, source = height_and_source(depth, jnp.asarray(cam_pose, jnp.float32), cam_cfg, ws_cfg)
+    return gather_at_source(jnp.asarray(rgb, jnp.uint8), source), height
 
 
 def heightmap_from_frame(depth, rgb, cam_pose, cam_cfg: Camera, ws_cfg: Workspace):

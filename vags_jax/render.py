@@ -354,8 +354,9 @@ class RenderOutput(NamedTuple):
     cos_incidence: jnp.ndarray  # (B, h, w) float32 |cos| of the angle between ray and normal
 
 
-def _render_one(geometry, geom_xpos, geom_xmat, geom_rgb, cam_pose, cam_cfg, chunk_pixels):
-    """One world: (ngeom, 3), (ngeom, 3, 3), (ngeom, 3) uint8, (4, 4) -> RenderOutput of (h, w)."""
+def _cast_one(geometry, geom_xpos, geom_xmat, cam_pose, cam_cfg, chunk_pixels):
+    """One world, "jax" backend: (ngeom, 3), (ngeom, 3, 3), (4, 4) -> (depth (h, w) float32, 0 =
+    nothing hit in [near, far]; geom id (h, w) int32, -1 = nothing hit; |cos incidence| (h, w))."""
     h, w = cam_cfg.height, cam_cfg.width
     rays = cam_lib.pixel_rays(cam_cfg).reshape(-1, 3)
     origin = cam_pose[:3, 3]
@@ -378,12 +379,43 @@ def _render_one(geometry, geom_xpos, geom_xmat, geom_rgb, cam_pose, cam_cfg, chu
     t, gid, cos = t.reshape(-1)[:n], gid.reshape(-1)[:n], cos.reshape(-1)[:n]
     valid = (t >= cam_cfg.near) & (t <= cam_cfg.far)
     depth = jnp.where(valid, t, 0.0).astype(jnp.float32)
-    hit = gid >= 0
-    cos = jnp.where(hit, cos, 0.0)
-    shade = AMBIENT + (1.0 - AMBIENT) * cos
-    color = geom_rgb[jnp.maximum(gid, 0)].astype(jnp.float32) * shade[:, None]
-    rgb = jnp.where(hit[:, None], jnp.clip(jnp.round(color), 0, 255), 0).astype(jnp.uint8)
-    return RenderOutput(depth.reshape(h, w), rgb.reshape(h, w, 3), gid.reshape(h, w), cos.reshape(h, w))
+    cos = jnp.where(gid >= 0, cos, 0.0)
+    return depth.reshape(h, w), gid.reshape(h, w), cos.reshape(h, w)
+
+
+def depth_and_segmentation(geometry, geom_xpos, geom_xmat, cam_pose, cam_cfg: Camera, chunk_pixels: int = 32768):
+    """Render B worlds without colour: what the heightmaps need.
+
+    Args: as `render_full`, without the colours.
+    Returns:
+      depth (B, h, w) float32 z-depth, 0 = missing; geom_id (B, h, w) int32 MuJoCo geom id,
+      -1 = nothing; cos_incidence (B, h, w) float32 from the exact hit normals ("jax"
+      backend), or None ("warp" backend: the renderer gives no normals; estimate them from
+      the depth image with `normals_from_depth` or `cos_incidence_at`).
+    """
+    if getattr(geometry, "backend", "jax") == "warp":
+        depth, seg = geometry.depth_and_segmentation(geom_xpos, geom_xmat, cam_pose, cam_cfg)
+        return depth, jnp.where(seg >= 0, seg, -1).astype(jnp.int32), None
+    geom_xpos = jnp.asarray(geom_xpos, jnp.float32)
+    geom_xmat = jnp.asarray(geom_xmat, jnp.float32).reshape(geom_xpos.shape[:-1] + (3, 3))
+    fn = lambda p, m, pose: _cast_one(geometry, p, m, pose, cam_cfg, chunk_pixels)  # noqa: E731
+    return jax.vmap(fn)(geom_xpos, geom_xmat, jnp.asarray(cam_pose, jnp.float32))
+
+
+def shade(geom_id, cos_incidence, geom_rgb):
+    """Pixel colours from what was hit: the geom's colour with a headlight's Lambert shading.
+
+    Args:
+      geom_id: (B, N) int32 geom hit per pixel, -1 = nothing (black).
+      cos_incidence: (B, N) |cos| of the angle between ray and surface normal.
+      geom_rgb: (B, ngeom, 3) uint8 per-world geom colours.
+    Returns:
+      (B, N, 3) uint8.
+    """
+    base = jnp.take_along_axis(jnp.asarray(geom_rgb, jnp.uint8).astype(jnp.float32),
+                               jnp.maximum(geom_id, 0)[..., None], axis=1)
+    color = base * (AMBIENT + (1.0 - AMBIENT) * cos_incidence)[..., None]
+    return jnp.where((geom_id >= 0)[..., None], jnp.clip(jnp.round(color), 0, 255), 0).astype(jnp.uint8)
 
 
 def render_full(geometry, geom_xpos, geom_xmat, geom_rgb, cam_pose, cam_cfg: Camera, chunk_pixels: int = 32768):
@@ -398,12 +430,12 @@ def render_full(geometry, geom_xpos, geom_xmat, geom_rgb, cam_pose, cam_cfg: Cam
       cam_cfg: image size and intrinsics (static).
       chunk_pixels: rays traced together per world ("jax" backend); lower it to save memory.
     """
-    if getattr(geometry, "backend", "jax") == "warp":
-        return geometry.render(geom_xpos, geom_xmat, geom_rgb, cam_pose, cam_cfg)
-    geom_xpos = jnp.asarray(geom_xpos, jnp.float32)
-    geom_xmat = jnp.asarray(geom_xmat, jnp.float32).reshape(geom_xpos.shape[:-1] + (3, 3))
-    fn = lambda p, m, c, pose: _render_one(geometry, p, m, c, pose, cam_cfg, chunk_pixels)
-    return jax.vmap(fn)(geom_xpos, geom_xmat, jnp.asarray(geom_rgb, jnp.uint8), jnp.asarray(cam_pose, jnp.float32))
+    depth, gid, cos = depth_and_segmentation(geometry, geom_xpos, geom_xmat, cam_pose, cam_cfg, chunk_pixels)
+    if cos is None:
+        cos = normals_from_depth(depth, cam_cfg)
+    b, h, w = depth.shape
+    rgb = shade(gid.reshape(b, -1), cos.reshape(b, -1), geom_rgb).reshape(b, h, w, 3)
+    return RenderOutput(depth.astype(jnp.float32), rgb, gid, cos)
 
 
 def render(geometry, geom_xpos, geom_xmat, geom_rgb, cam_pose, cam_cfg: Camera, chunk_pixels: int = 32768):
@@ -461,16 +493,49 @@ def normals_from_depth(depth, cam_cfg: Camera):
     return jnp.where(depth > 0, cos, 0.0)
 
 
+def cos_incidence_at(depth, pixel, cam_cfg: Camera):
+    """`normals_from_depth` evaluated at chosen pixels only (the same finite differences).
+
+    Args:
+      depth: (B, h, w) z-depth images, 0 = missing.
+      pixel: (B, M) int32 pixel index ``row * w + col`` into each image.
+    Returns:
+      (B, M) float32 |cos incidence| at those pixels (0 where their depth is 0).
+    """
+    b, h, w = depth.shape
+    flat = depth.reshape(b, -1)
+    row, col = pixel // w, pixel % w
+    cx, cy = cam_cfg.principal_point
+
+    def ray(r, c):  # as `camera.pixel_rays`
+        u = (c.astype(jnp.float32) - cx) / cam_cfg.fx
+        v = (r.astype(jnp.float32) - cy) / cam_cfg.fy
+        return jnp.stack([u, v, jnp.ones_like(u)], axis=-1)
+
+    def point(r, c):  # as `camera.backproject`; indices wrap around like `jnp.roll`
+        r, c = r % h, c % w
+        return jnp.take_along_axis(flat, r * w + c, axis=1)[..., None] * ray(r, c)
+
+    dx = point(row, col + 1) - point(row, col - 1)
+    dy = point(row + 1, col) - point(row - 1, col)
+    n = jnp.cross(dx, dy)
+    n = n / jnp.maximum(jnp.linalg.norm(n, axis=-1, keepdims=True), 1e-12)
+    r0 = ray(row, col)
+    cos = jnp.abs(_dot3(n, r0)) / jnp.linalg.norm(r0, axis=-1)
+    return jnp.where(jnp.take_along_axis(flat, pixel, axis=1) > 0, cos, 0.0)
+
+
 @dataclasses.dataclass(eq=False)
 class WarpGeometry:
-    """MJX Warp renderer behind the `render` interface (UNTESTED here: needs warp-lang + GPU).
+    """MJX Warp renderer behind `depth_and_segmentation` / `render_full` (needs warp-lang and
+    an NVIDIA GPU; its tests skip elsewhere).
 
     Built by ``prepare_geometry(mj_model, mask, backend="warp", cam_cfg=cam, n_worlds=B)``.
     A camera named ``vags_cam`` (or else camera 0) of `mj_model` is given our intrinsics
     (on a copy of the model); at render time its pose is overwritten per world.  Geoms are
     selected by geom group: `render_geom_mask` must be expressible as "all geoms in these
-    groups".  Colours come from the segmentation output mapped through our per-world
-    `geom_rgb`, shaded with normals estimated from the depth image.  Warp samples pixel
+    groups".  Colours (`render_full`) come from the segmentation output mapped through our
+    per-world `geom_rgb`, shaded with normals estimated from the depth image.  Warp samples pixel
     centres at (px + 0.5); the principal point is shifted by half a pixel to match our
     convention (pixel u samples (u - cx) / fx).  Warp's depth is already planar z-depth.
     """
@@ -546,20 +611,6 @@ class WarpGeometry:
         # fields are per world, and a plain broadcast of every leaf is rejected.
         d = jax.jit(jax.vmap(lambda _: mjx.make_data(m, impl="warp")))(jnp.arange(n_worlds))
         return WarpGeometry(mx, ctx, d, cid, n_worlds, int(m.ngeom))
-
-    def render(self, geom_xpos, geom_xmat, geom_rgb, cam_pose, cam_cfg: Camera) -> RenderOutput:
-        b = geom_xpos.shape[0]
-        depth, seg = self.depth_and_segmentation(geom_xpos, geom_xmat, cam_pose, cam_cfg)
-        cos = normals_from_depth(depth, cam_cfg)
-        gid = jnp.where(seg >= 0, seg, -1).astype(jnp.int32)
-        shade = AMBIENT + (1.0 - AMBIENT) * cos
-        color = jnp.take_along_axis(
-            jnp.asarray(geom_rgb, jnp.uint8).astype(jnp.float32),
-            jnp.maximum(gid, 0).reshape(b, -1)[..., None],
-            axis=1,
-        ).reshape(depth.shape + (3,)) * shade[..., None]
-        rgb = jnp.where((gid >= 0)[..., None], jnp.clip(jnp.round(color), 0, 255), 0).astype(jnp.uint8)
-        return RenderOutput(depth.astype(jnp.float32), rgb, gid, cos)
 
     def depth_and_segmentation(self, geom_xpos, geom_xmat, cam_pose, cam_cfg: Camera):
         """The Warp renderer's own part of `render`: (depth (B, h, w) float32 m, 0 = nothing
