@@ -49,13 +49,14 @@ def test_warp_buffers_did_not_overflow(outcomes):
 
 
 def test_gpu_preset_physics_keeps_the_scripted_outcomes():
-    """The ``gpu`` preset's physics settings (6 ms step, solver cap 5, MuJoCo's primitive
-    box-box test) on MuJoCo Warp: correct cube grasps still succeed, empty spots and wrong-axis
-    cuboid grasps still fail, and its step count is at least 2.4x smaller than the 2 ms
-    default's."""
+    """The ``gpu`` preset's physics settings (6 ms step, solver cap 2, MuJoCo's primitive
+    box-box test, its grasp phases) on MuJoCo Warp: correct cube grasps still succeed, empty
+    spots and wrong-axis cuboid grasps still fail, and its step count is at least 2.4x smaller
+    than the 2 ms default's."""
     from vags_jax.config import preset
 
-    cfg = tiny_config(sim=preset("gpu").sim)  # all of the preset's physics, whatever it holds
+    gpu = preset("gpu")  # all of the preset's physics and grasp phases, whatever they hold
+    cfg = tiny_config(sim=gpu.sim, grasp=gpu.grasp)
     sim = Simulator(cfg, build_scene(cfg))
     default = Simulator(tiny_config(**{"sim.impl": "warp"}), build_scene(tiny_config()))
     assert sim.n_grasp_steps * 2.4 < default.n_grasp_steps
