@@ -87,3 +87,17 @@ def test_observe_matches_colouring_the_whole_image(tiny_cfg, env, state):
     np.testing.assert_array_equal(np.asarray(height), np.asarray(ref_height))
     np.testing.assert_array_equal(np.asarray(color), np.asarray(ref_color))
     assert np.asarray(ref_color).any(axis=-1).mean() > 0.3  # the comparison is not of black images
+
+
+def test_observe_with_depth_noise(tiny_cfg, state):
+    """camera.noise: observe needs a key, and the noisy heightmaps stay close to the clean ones."""
+    noisy = VagsEnv(C.replace(tiny_cfg, **{"camera.noise.enabled": True}))
+    with pytest.raises(ValueError, match="PRNG key"):
+        noisy.observe_global(state.sim)
+    color, height = jax.jit(noisy.observe_global)(state.sim, jax.random.PRNGKey(5))
+    h, ref = np.asarray(height), np.asarray(state.height)
+    assert not np.array_equal(h, ref)
+    both = np.asarray(color).any(axis=-1) & np.asarray(state.color).any(axis=-1)  # seen in both
+    assert both.mean() > 0.5 and np.median(np.abs(h - ref)[both]) < 0.003
+    obj = both & (ref > 0.02)  # object tops: still there under noise
+    assert obj.any() and np.abs(h - ref)[obj].mean() < 0.005
