@@ -29,3 +29,11 @@ def test_sleep_needs_impl_warp():
 def test_collision_and_cone_settings_are_checked(field, bad, msg):
     with pytest.raises(ValueError, match=msg):
         C.replace(C.Config(), **{field: bad})
+
+
+def test_render_batch_is_bounded_by_the_scatter_indices():
+    """640 x 480 images: at most 6,990 per render group (int32 pixel indices in the heightmap
+    scatter); the check names the field and the bound."""
+    assert C.replace(C.Config(), **{"camera.render_batch": 6990}).camera.render_batch == 6990
+    with pytest.raises(ValueError, match=r"Camera\.render_batch = 8192 .* at most 6990"):
+        C.replace(C.Config(), **{"camera.render_batch": 8192})

@@ -142,3 +142,14 @@ def test_real_frame_validation():
         args.update(kw)
         with pytest.raises(ValueError, match=msg):
             heightmap.heightmap_from_frame(args["depth"], args["rgb"], args["cam_pose"], cam, ws)
+
+
+def test_heightmaps_refuse_batches_that_overflow_pixel_indices():
+    """B * h * w >= 2**31 would wrap the scatter's int32 point indices: a clear error at trace
+    time instead (checked on shapes only, nothing is allocated)."""
+    cam = rs.small_camera(1.0)  # 640 x 480
+    ws = Workspace()
+    depth = jax.ShapeDtypeStruct((7000, cam.height, cam.width), np.float32)
+    pose = jax.ShapeDtypeStruct((7000, 4, 4), np.float32)
+    with pytest.raises(ValueError, match=r"at most 6990"):
+        jax.eval_shape(lambda d, p: heightmap.height_and_source(d, p, cam, ws), depth, pose)

@@ -275,6 +275,10 @@ class Camera:
         _check(0 < self.near < self.far, "Camera needs 0 < near < far")
         _check(self.renderer in ("jax", "warp"), f"Camera.renderer must be 'jax' or 'warp', got {self.renderer!r}")
         _check(self.render_batch >= 1, f"Camera.render_batch must be >= 1, got {self.render_batch}")
+        most = (2**31 - 1) // (self.width * self.height)
+        _check(self.render_batch <= most,
+               f"Camera.render_batch = {self.render_batch} images of {self.width} x {self.height} "
+               f"overflow the int32 pixel indices of the heightmap scatter; use at most {most}")
 
     @property
     def principal_point(self) -> tuple[float, float]:
