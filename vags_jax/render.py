@@ -606,6 +606,10 @@ class WarpGeometry:
             cam_active=[cid],
             use_textures=False,
             use_shadows=False,
+            enable_backface_culling=cam_cfg.warp_backface_culling,
+            # Vertex normals only shade RGB, which we do not ask Warp for; off, mesh hits skip
+            # the interpolation (our colours come from segmentation + depth, see render_full).
+            enable_vertex_normals=False,
         )
         # Batched warp Data must come from a vmapped make_data: MJX's warp FFI knows which
         # fields are per world, and a plain broadcast of every leaf is rejected.
