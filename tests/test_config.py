@@ -37,3 +37,10 @@ def test_render_batch_is_bounded_by_the_scatter_indices():
     assert C.replace(C.Config(), **{"camera.render_batch": 6990}).camera.render_batch == 6990
     with pytest.raises(ValueError, match=r"Camera\.render_batch = 8192 .* at most 6990"):
         C.replace(C.Config(), **{"camera.render_batch": 8192})
+
+
+@pytest.mark.parametrize("bad", [-0.1, 1.0, 1.5])
+def test_lift_hold_is_a_share_of_the_lift(bad):
+    assert C.replace(C.Config(), **{"grasp.lift_hold": 0.0}).grasp.lift_hold == 0.0
+    with pytest.raises(ValueError, match=r"Grasp\.lift_hold must be in \[0, 1\)"):
+        C.replace(C.Config(), **{"grasp.lift_hold": bad})

@@ -130,6 +130,22 @@ def test_guarded_descent_starts_above_the_highest_object_within_reach(sim, scene
     np.testing.assert_allclose(zs, expect, atol=1e-5)
 
 
+@pytest.mark.parametrize("hold", [0.25, 0.0])
+def test_lift_schedule_holds_for_lift_hold_of_the_lift(scene, hold):
+    """The lift fraction rises along a half cosine over (1 - lift_hold) of ``t_lift`` and then
+    holds 1 until the grasp is judged; with no hold it reaches 1 at the last lift step."""
+    cfg = replace(tiny_config(), **{"grasp.lift_hold": hold})
+    sched = Simulator(cfg, scene).schedule
+    g, dt = cfg.grasp, cfg.sim.timestep
+    n_lift = int(round(g.t_lift / dt))
+    lift = sched[-n_lift:, 1]
+    assert (sched[:-n_lift, 1] == 0).all()
+    n_move = int(round((1 - hold) * n_lift))
+    assert (np.diff(lift[:n_move]) > 0).all() and lift[n_move - 2] < 1.0
+    np.testing.assert_allclose(lift[n_move - 1:], 1.0, atol=1e-6)
+    assert len(lift[n_move:]) == n_lift - n_move
+
+
 def test_mujoco_c_runs_the_same_grasp(grasp_batch, sim, scene):
     """The scene compiles in MuJoCo C; the same scripted grasp (schedule of the simulator)
     lifts the cube there too, and the final pad gap agrees with MJX."""

@@ -210,6 +210,10 @@ class Grasp:
     t_close: float = 0.3
     t_lift: float = 0.5
     t_post: float = 0.1  # after the lift: gripper parked, dropped / disturbed objects settle (gpu: 0.05)
+    # Share of t_lift spent holding still at the top before the grasp is judged; the lift
+    # itself (a half-cosine) takes the rest, so its peak acceleration is
+    # lift_height * pi^2 / (2 * ((1 - lift_hold) * t_lift)^2).
+    lift_hold: float = 0.25
     # Success: object lifted this far above the table, fingers not fully closed.
     success_lift: float = 0.05
     closed_gap: float = 0.005  # pad gap below this counts as "fully closed"
@@ -222,6 +226,7 @@ class Grasp:
         _check(self.finger_stroke > 0, "Grasp.finger_stroke must be > 0")
         for name in ("t_settle", "t_descend", "t_close", "t_lift", "t_post"):
             _check(getattr(self, name) > 0, f"Grasp.{name} must be > 0 seconds")
+        _check(0.0 <= self.lift_hold < 1.0, f"Grasp.lift_hold must be in [0, 1), got {self.lift_hold}")
         c = self.descent_clearance
         _check(
             c is None or (isinstance(c, (int, float)) and not isinstance(c, bool)

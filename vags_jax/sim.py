@@ -33,7 +33,7 @@ Grasp (all worlds, one jitted call; durations from ``cfg.grasp``):
      part of the descent, where nothing can be touched, is not simulated.
   1. open / settle ``t_settle``;  2. descend to the grasp point ``t_descend`` (smooth profile
      over the first 75 %, then hold);  3. close ``t_close``;  4. lift by ``lift_height``
-     ``t_lift`` (smooth over the first 75 %).
+     ``t_lift`` (smooth over the first ``1 - lift_hold`` of it, then hold).
   Then success is evaluated: an active object rose by more than ``success_lift`` and is above
   ``table_z + success_lift`` and the pad gap is > ``closed_gap``.  The grasped object is the
   lifted one nearest to the TCP; it is parked (active False).  The gripper is parked and the
@@ -251,7 +251,7 @@ class Simulator:
         self.n_post = steps(g.t_post)
         zeros, ones = np.zeros, np.ones
         descend = np.concatenate([zeros(n_open), _smooth_ramp(n_desc, 0.75), ones(n_close + n_lift)])
-        lift = np.concatenate([zeros(n_open + n_desc + n_close), _smooth_ramp(n_lift, 0.75)])
+        lift = np.concatenate([zeros(n_open + n_desc + n_close), _smooth_ramp(n_lift, 1.0 - g.lift_hold)])
         close_ramp = np.clip(np.arange(1, n_close + 1) / max(1, n_close // 3), 0.0, 1.0)
         close = np.concatenate([zeros(n_open + n_desc), close_ramp, ones(n_lift)])
         # (T, 3) per-step fractions (descend, lift, close) of the grasp up to the evaluation:
