@@ -172,6 +172,8 @@ def main(argv=None):
                 row = {"variant": name, "overrides": args.set + ov, **row}
                 rows.append(row)
                 print(json.dumps(row), flush=True)
+                if args.out:  # after every row, so a run cut short keeps what it measured
+                    write_rows(args.out, rows)
     print("\n| variant | impl | renderer | worlds | objects | image | heightmaps/s | grasp attempts/s (reset+render+hm+grasp) | grasps/s (no reset) | env-steps/s | loop: grasp attempts/s | loop: resetting | loop: success | loop: lost / attempt |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
@@ -181,10 +183,13 @@ def main(argv=None):
               f"{g('env_steps_per_s_in_attempt')} | {g('loop_attempts_per_s')} | "
               f"{g('loop_reset_share', '{:.1%}')} | {g('loop_success', '{:.1%}')} | "
               f"{g('loop_lost_per_attempt', '{:.3f}')} |")
-    if args.out:
-        with open(args.out, "w") as f:
-            json.dump({"device": str(jax.devices()[0].device_kind), "argv": sys.argv[1:], "rows": rows}, f, indent=1)
     return 0 if rows else 1
+
+
+def write_rows(path: str, rows: list[dict]) -> None:
+    """Write the rows measured so far, with the device and the command line, as one JSON file."""
+    with open(path, "w") as f:
+        json.dump({"device": str(jax.devices()[0].device_kind), "argv": sys.argv[1:], "rows": rows}, f, indent=1)
 
 
 if __name__ == "__main__":
