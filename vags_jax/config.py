@@ -272,8 +272,9 @@ class Camera:
     render_batch: int = 256  # worlds rendered + projected together (bounds memory; both renderers)
     # Warp renderer only: drop ray hits on faces turned away from the ray (MuJoCo's mesh-ray
     # rule).  Such hits need the camera inside a geom, which ours never is (the gripper is not
-    # rendered), so the images are the same either way; off, the Warp renderer was 1.32x
-    # faster on the H100 (bench/RESULTS.md, "eighth pass").
+    # rendered), so turning it off changes nothing seen (bench/render_parity.py agrees with the
+    # JAX ray caster equally well either way) and made the Warp renderer 1.35x faster on the
+    # H100 (bench/RESULTS.md, "eighth pass").
     warp_backface_culling: bool = False
 
     def __post_init__(self):
@@ -544,9 +545,9 @@ def gpu() -> Config:
         # grasps held) (bench/RESULTS.md, "seventh pass").
         # The lift without the 0.125 s pause at the top (the same half-cosine, peak
         # acceleration and height) and a 0.85 s reset settle, so a loop iteration is 148 steps
-        # instead of 169: 1.09x the attempts/s, 0.2 points less heuristic success over three
-        # runs, the same losses and scripted outcomes; a settle of 0.7-0.8 s alone changed
-        # nothing measurable (bench/RESULTS.md, "eighth pass").
+        # instead of 169: 1.08x the attempts/s, 0.2-0.3 points less heuristic success, the
+        # same scripted outcomes; the shorter settle alone changed nothing measurable
+        # (bench/RESULTS.md, "eighth pass").
         sim=Sim(impl="warp", timestep=0.006, iterations=2, contacts_per_world=96, native_ccd=False),
         scene=Scene(settle_time=0.85),
         grasp=Grasp(t_post=0.05, t_lift=0.375, lift_hold=0.0),
