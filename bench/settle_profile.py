@@ -60,7 +60,7 @@ def profile(cfg: C.Config, n_worlds: int, n_objects: int, times: list[float], ke
             n_now += 1
         color, height = observe(state)
         pos, quat = (np.asarray(a) for a in sim.object_poses(state))
-        vel = np.asarray(state.data.qvel[:, sim._obj_vidx[:, :3]])
+        vel = np.asarray(sim.object_velocities(state)[..., :3])
         t_sim = n_now * int(round(chunk / cfg.sim.timestep)) * cfg.sim.timestep
         snaps.append(dict(t=t, t_sim=t_sim, pos=pos, quat=quat, speed=np.linalg.norm(vel, axis=-1),
                           height=np.asarray(height), active=np.asarray(state.active),

@@ -143,7 +143,6 @@ def test_lift_schedule_holds_for_lift_hold_of_the_lift(scene, hold):
     n_move = int(round((1 - hold) * n_lift))
     assert (np.diff(lift[:n_move]) > 0).all() and lift[n_move - 2] < 1.0
     np.testing.assert_allclose(lift[n_move - 1:], 1.0, atol=1e-6)
-    assert len(lift[n_move:]) == n_lift - n_move
 
 
 def test_mujoco_c_runs_the_same_grasp(grasp_batch, sim, scene):
@@ -218,11 +217,11 @@ def test_reset_puts_n_objects_on_the_table_at_rest(reset_state, sim, scene, cfg)
     on = pos[active]
     assert np.all((on[:, 0] > xmin) & (on[:, 0] < xmax) & (on[:, 1] > ymin) & (on[:, 1] < ymax))
     assert np.all((on[:, 2] > 0.0) & (on[:, 2] < 0.15)), on[:, 2]
-    qvel = np.asarray(st.data.qvel)
-    for b in range(B):
-        for i in np.flatnonzero(active[b]):
-            v = qvel[b, scene.object_dof_adr[i]: scene.object_dof_adr[i] + 6]
-            assert np.abs(v[:3]).max() < 0.05 and np.abs(v[3:]).max() < 1.0, (b, i, v)
+    vel = np.asarray(sim.object_velocities(st))
+    assert vel.shape == (B, sim.P, 6)
+    np.testing.assert_array_equal(vel, np.asarray(st.data.qvel)[:, scene.object_dof_adr[:, None] + np.arange(6)])
+    v = vel[active]
+    assert np.abs(v[:, :3]).max() < 0.05 and np.abs(v[:, 3:]).max() < 1.0, v
     parked = pos[~active]
     idx = np.nonzero(~active)[1]
     np.testing.assert_allclose(parked, scene.park_qpos[idx, :3], atol=1e-6)

@@ -272,9 +272,9 @@ class Camera:
     render_batch: int = 256  # worlds rendered + projected together (bounds memory; both renderers)
     # Warp renderer only: drop ray hits on faces turned away from the ray (MuJoCo's mesh-ray
     # rule).  Such hits need the camera inside a geom, which ours never is (the gripper is not
-    # rendered), so turning it off changes nothing seen (bench/render_parity.py agrees with the
-    # JAX ray caster equally well either way) and made the Warp renderer 1.35x faster on the
-    # H100 (bench/RESULTS.md, "eighth pass").
+    # rendered), so turning it off leaves the images as they were to what bench/render_parity.py
+    # resolves (the same agreement with the JAX ray caster either way) and made the Warp
+    # renderer 1.35x faster on the H100 (bench/RESULTS.md, "eighth pass").
     warp_backface_culling: bool = False
 
     def __post_init__(self):

@@ -14,7 +14,7 @@ warp-lang) and jitted, batched functions over ``SimState`` (leading dim B = worl
   world at once (see "Grasp" below); ``grasp_or_reset_batched``: the same, where the masked
   worlds start a new scene instead (the training loop's step).
 * helpers: ``empty`` (all parked, for scripted scenes), ``set_objects``, ``object_poses``,
-  ``object_positions``, ``park_objects``, ``settle``, ``take_worlds``; host-side
+  ``object_velocities``, ``object_positions``, ``park_objects``, ``settle``, ``take_worlds``; host-side
   ``check_overflow(state)``.  Pure-jit users may call them inside their own jit.
 
 Parking (details in ``vags_jax.scene``): unused / grasped objects are pinned at fixed poses
@@ -643,6 +643,10 @@ class Simulator:
         """-> (pos (B, P, 3), quat (B, P, 4) wxyz) of every pool body (parked ones included)."""
         q = state.data.qpos[:, self._obj_qidx]
         return q[..., :3], q[..., 3:]
+
+    def object_velocities(self, state: SimState) -> jax.Array:
+        """-> (B, P, 6) linear (m/s) then angular (rad/s) velocity of every pool body."""
+        return state.data.qvel[:, self._obj_vidx]
 
     def object_positions(self, state: SimState) -> jax.Array:
         """(B, P, 3) body positions (bounding-box centres)."""
