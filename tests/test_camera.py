@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from vags_jax import camera
-from vags_jax.config import Camera, Workspace
+from vags_jax.config import Camera, Workspace, tiny
 
 CAM = Camera()
 WS = Workspace()
@@ -18,11 +18,21 @@ def _assert_rigid(pose):
     np.testing.assert_allclose(pose[..., 3, :], np.broadcast_to([0, 0, 0, 1], pose.shape[:-2] + (4,)))
 
 
-def test_intrinsics():
-    k = np.asarray(camera.intrinsics(CAM))
-    np.testing.assert_allclose(k, [[618.62, 0, 320], [0, 618.62, 240], [0, 0, 1]], rtol=1e-6)
-    k2 = np.asarray(camera.intrinsics(Camera(cx=300.5, cy=250.0)))
-    assert k2[0, 2] == 300.5 and k2[1, 2] == 250.0
+def test_intrinsics_map_camera_points_to_pixels():
+    """K sends a camera-frame point to its pixel, and `project` agrees.  Hand-computed with
+    fx = 500, fy = 400, cx = 300.5, cy = 250: the point (0.1, -0.05, 0.5) lands at
+    u = 500 * 0.1 / 0.5 + 300.5 = 400.5, v = 400 * -0.05 / 0.5 + 250 = 210."""
+    cam = Camera(fx=500.0, fy=400.0, cx=300.5, cy=250.0)
+    k = np.asarray(camera.intrinsics(cam), np.float64)
+    point = np.array([0.1, -0.05, 0.5])
+    np.testing.assert_allclose(k @ point / point[2], [400.5, 210.0, 1.0], rtol=1e-6)
+    uv, z = camera.project(point[None], np.eye(4, dtype=np.float32), cam)  # camera frame = world
+    np.testing.assert_allclose(np.asarray(uv)[0], [400.5, 210.0], rtol=1e-6)
+    np.testing.assert_allclose(np.asarray(z), [0.5], rtol=1e-6)
+    # With cx, cy unset the principal point is the image centre: the optical axis hits it.
+    small = Camera(width=100, height=80, fx=90.0, fy=90.0)
+    uv, _ = camera.project(np.array([[0.0, 0.0, 0.3]]), np.eye(4, dtype=np.float32), small)
+    np.testing.assert_allclose(np.asarray(uv)[0], [50.0, 40.0], atol=1e-6)
 
 
 def test_look_at_points_optical_axis_at_target():
@@ -40,19 +50,21 @@ def test_look_at_points_optical_axis_at_target():
     assert poses.shape == (2, 4, 4)
 
 
-def test_global_pose_sees_whole_workspace():
-    """Default 640 x 480, fx = fy = 618.62: the workspace corners (on the table and 10 cm above)
-    project inside the image."""
-    pose = camera.global_pose(CAM)
+@pytest.mark.parametrize("cam", [Camera(), tiny().camera], ids=["640x480", "tiny-128x96"])
+def test_global_pose_sees_whole_workspace(cam):
+    """From the preset global pose the workspace corners (on the table, with a margin of 5 px
+    at 640 px width, and 10 cm above it) project inside the image, for the default camera and
+    the ``tiny`` preset's."""
+    pose = camera.global_pose(cam)
     _assert_rigid(pose)
     xmin, xmax, ymin, ymax = WS.bounds
-    for z, margin in ((WS.table_z, 5.0), (WS.table_z + 0.10, 0.0)):
+    for z, margin in ((WS.table_z, 5.0 * cam.width / 640), (WS.table_z + 0.10, 0.0)):
         corners = np.array([[x, y, z] for x in (xmin, xmax) for y in (ymin, ymax)])
-        uv, depth = camera.project(corners, pose, CAM)
+        uv, depth = camera.project(corners, pose, cam)
         uv = np.asarray(uv)
-        assert np.all(np.asarray(depth) > CAM.near)
-        assert np.all(uv[:, 0] >= margin) and np.all(uv[:, 0] <= CAM.width - 1 - margin), uv
-        assert np.all(uv[:, 1] >= margin) and np.all(uv[:, 1] <= CAM.height - 1 - margin), uv
+        assert np.all(np.asarray(depth) > cam.near)
+        assert np.all(uv[:, 0] >= margin) and np.all(uv[:, 0] <= cam.width - 1 - margin), uv
+        assert np.all(uv[:, 1] >= margin) and np.all(uv[:, 1] <= cam.height - 1 - margin), uv
 
 
 def test_project_backproject_roundtrip():
@@ -86,25 +98,33 @@ def test_heightmap_cells_and_world():
     assert not np.any(np.asarray(camera.in_workspace(out, WS)))
 
 
-def test_viewpoint_pose_25cm_above_surface_looking_down():
+@pytest.mark.parametrize("viewpoint_height", [0.25, 0.4])
+def test_viewpoint_pose_above_surface_looking_down(viewpoint_height):
+    """The camera goes ``viewpoint_height`` (the paper's 25 cm, and another value) above the
+    surface at the chosen cell, looking straight down at it."""
+    cam = Camera(viewpoint_height=viewpoint_height)
     hm = np.zeros((2, WS.heightmap_px, WS.heightmap_px), np.float32)
     hm[0, 50, 120] = 0.07
     hm[1, 200, 10] = 0.0
     pix = np.array([[50, 120], [200, 10]])
-    poses = np.asarray(camera.viewpoint_pose(pix, hm, WS, CAM))
+    poses = np.asarray(camera.viewpoint_pose(pix, hm, WS, cam))
     assert poses.shape == (2, 4, 4)
     _assert_rigid(poses)
     xy = np.asarray(camera.pixel_to_world_xy(pix, WS))
     np.testing.assert_allclose(poses[:, :2, 3], xy, atol=1e-6)
-    np.testing.assert_allclose(poses[:, 2, 3], [WS.table_z + 0.07 + 0.25, WS.table_z + 0.25], atol=1e-6)
-    assert CAM.viewpoint_height == 0.25
+    np.testing.assert_allclose(poses[:, 2, 3], [WS.table_z + 0.07 + viewpoint_height,
+                                                WS.table_z + viewpoint_height], atol=1e-6)
     # Optical axis straight down; fixed orientation: image cols = world +x, image rows = world -y.
     np.testing.assert_allclose(poses[:, :3, 2], [[0, 0, -1]] * 2, atol=1e-7)
     np.testing.assert_allclose(poses[:, :3, 0], [[1, 0, 0]] * 2, atol=1e-7)
     np.testing.assert_allclose(poses[:, :3, 1], [[0, -1, 0]] * 2, atol=1e-7)
-    # A point on the surface under the chosen cell projects to the principal point at depth 0.25.
-    uv, z = camera.project(np.array([[xy[0, 0], xy[0, 1], 0.07]]), poses[0], CAM)
-    np.testing.assert_allclose(np.asarray(uv[0]), CAM.principal_point, atol=1e-3)
-    np.testing.assert_allclose(np.asarray(z), 0.25, atol=1e-6)
+    # The surface point under the chosen cell projects to the principal point at depth
+    # viewpoint_height; a point 1 cm along world +x lands 1 cm * fx / depth columns right of it.
+    surface = np.array([[xy[0, 0], xy[0, 1], 0.07], [xy[0, 0] + 0.01, xy[0, 1], 0.07]])
+    uv, z = camera.project(surface, poses[0], cam)
+    cx, cy = cam.principal_point
+    np.testing.assert_allclose(np.asarray(uv), [[cx, cy], [cx + 0.01 * cam.fx / viewpoint_height, cy]],
+                               atol=1e-3)
+    np.testing.assert_allclose(np.asarray(z), viewpoint_height, atol=1e-6)
     # Unbatched call.
-    assert camera.viewpoint_pose(pix[0], hm[0], WS, CAM).shape == (4, 4)
+    assert camera.viewpoint_pose(pix[0], hm[0], WS, cam).shape == (4, 4)

@@ -83,11 +83,33 @@ def test_priority_update_and_new_items_get_max_priority():
     np.testing.assert_allclose(st.priorities[3], 0.01, rtol=1e-6)
 
 
-@pytest.mark.parametrize("alpha", [1.0, 0.5])
-def test_sampling_frequencies_and_importance_weights(alpha):
+def _is_weights_by_hand(priorities, alpha, beta, sampled):
+    """Prioritized-replay importance weights computed from the definition (Schaul et al. 2016),
+    one item at a time in plain Python, independently of ``replay.sample``'s vectorised code:
+    P(i) = p_i^alpha / sum_k p_k^alpha over the N valid items, w_i = (N P(i))^-beta, and every
+    weight divided by the largest weight among the items in the sampled batch."""
+    n = len(priorities)
+    total = sum(p ** alpha for p in priorities)
+    prob = [p ** alpha / total for p in priorities]
+    raw = {i: (n * prob[i]) ** (-beta) for i in sorted(set(sampled))}
+    biggest = max(raw.values())
+    return {i: w / biggest for i, w in raw.items()}
+
+
+# Hand-worked importance weights for priorities 1, 2, 3, 4 (N = 4) and beta = 0.5:
+#   alpha = 1:   P = .1 .2 .3 .4;  N P = .4 .8 1.2 1.6;  (N P)^-1/2 = 1.5811 1.1180 .91287 .79057
+#                -> / 1.5811 = 1, .70711, .57735, .5
+#   alpha = 0.5: p^.5 = 1 1.41421 1.73205 2 (sum 6.14626);  N P = .65080 .92037 1.12722 1.30160;
+#                (N P)^-1/2 = 1.23958 1.04236 .94188 .87652 -> / 1.23958 = 1, .84090, .75984, .70711
+@pytest.mark.parametrize("alpha,hand_weights", [
+    (1.0, [1.0, 0.70711, 0.57735, 0.5]),
+    (0.5, [1.0, 0.84090, 0.75984, 0.70711]),
+])
+def test_sampling_frequencies_and_importance_weights(alpha, hand_weights):
     # Capacity 8, 4 valid items with priorities 1, 2, 3, 4; slots 4..7 never written.
+    priorities = [1.0, 2.0, 3.0, 4.0]
     st = replay.add(_scalar_buffer(8), _items([10, 11, 12, 13]))
-    st = replay.update_priorities(st, jnp.arange(4), jnp.array([1.0, 2.0, 3.0, 4.0]), 0.0)
+    st = replay.update_priorities(st, jnp.arange(4), jnp.array(priorities), 0.0)
     n = 20_000
     beta = 0.5
     sample = jax.jit(replay.sample, static_argnums=2)
@@ -96,20 +118,19 @@ def test_sampling_frequencies_and_importance_weights(alpha):
     assert idx.min() >= 0 and idx.max() <= 3  # never an unwritten slot
     np.testing.assert_array_equal(np.asarray(batch["x"]), 10 + idx)
 
-    p = np.array([1.0, 2.0, 3.0, 4.0]) ** alpha
+    p = np.array(priorities) ** alpha
     probs = p / p.sum()  # alpha=1: .1 .2 .3 .4
     counts = np.bincount(idx, minlength=4)
     chi2 = ((counts - n * probs) ** 2 / (n * probs)).sum()
     assert chi2 < 21.1, (counts, n * probs)  # 3 dof, p = 1e-4
 
-    # IS weights: (N P(i))^-beta / max; all four items occur, so the max belongs to item 0
-    # and w_i = (P_i / P_0)^-beta = (i + 1)^(-alpha * beta).
-    expected = np.array([1.0, 2.0, 3.0, 4.0]) ** (-alpha * beta)
-    if alpha == 1.0:
-        np.testing.assert_allclose(expected, [1.0, 1 / np.sqrt(2), 1 / np.sqrt(3), 0.5])
+    # Every draw's weight is the one worked out by hand above and by the definition.
+    by_hand = _is_weights_by_hand(priorities, alpha, beta, idx.tolist())
+    np.testing.assert_allclose([by_hand[i] for i in range(4)], hand_weights, rtol=1e-4)
     w = np.asarray(w)
     for i in range(4):
-        np.testing.assert_allclose(w[idx == i], expected[i], rtol=1e-5)
+        np.testing.assert_allclose(w[idx == i], hand_weights[i], rtol=1e-4)
+        np.testing.assert_allclose(w[idx == i], by_hand[i], rtol=1e-5)
 
 
 def test_importance_weights_hand_computed_small_batch():
@@ -124,6 +145,20 @@ def test_importance_weights_hand_computed_small_batch():
     # beta = 0: uniform weights.
     _, _, w0 = replay.sample(st, jax.random.key(3), 64, 1.0, 0.0)
     np.testing.assert_allclose(w0, 1.0)
+
+
+def test_importance_weights_are_normalised_by_the_batch_maximum():
+    # Priorities 0, 1, 1, 2 (alpha = beta = 1, N = 4): P = 0, 1/4, 1/4, 1/2, so N P = 0, 1, 1, 2
+    # and raw w = inf, 1, 1, 1/2.  Item 0 is never drawn (probability 0); dividing by the largest
+    # weight *in the batch* gives 1, 1, 1/2 -- dividing by the largest over the buffer would give
+    # 0 everywhere.
+    st = replay.add(_scalar_buffer(4), _items([0, 1, 2, 3]))
+    st = replay.update_priorities(st, jnp.arange(4), jnp.array([0.0, 1.0, 1.0, 2.0]), 0.0)
+    idx, _, w = replay.sample(st, jax.random.key(5), 64, 1.0, 1.0)
+    idx, w = np.asarray(idx), np.asarray(w)
+    assert 0 not in set(idx.tolist()) and set(idx.tolist()) == {1, 2, 3}
+    for i, expected in ((1, 1.0), (2, 1.0), (3, 0.5)):
+        np.testing.assert_allclose(w[idx == i], expected, rtol=1e-6)
 
 
 def test_alpha_zero_is_uniform_over_valid_slots():

@@ -16,11 +16,19 @@ from vags_jax.sim import GraspResult, SimState, Simulator, check_overflow
 from grasp_scenarios import CUBE, LONG, scenarios, tiny_config
 
 N_CUBE, N_EMPTY, N_LONG = 40, 8, 8
+EMPTY_TABLE = N_CUBE + N_EMPTY - 1  # an empty-spot world whose table holds no object
+
+
+# Spelled out (they are also the defaults) because the hand-computed travel distances of
+# test_grasp_travel_distances depend on them.
+HAND = {"camera.global_position": (0.0, -0.25, 0.60), "grasp.approach_height": 0.15,
+        "grasp.lift_height": 0.15, "grasp.min_height_above_table": 0.005,
+        "grasp.depth_below_surface": 0.03}
 
 
 @pytest.fixture(scope="module")
 def cfg():
-    return tiny_config()
+    return tiny_config(**HAND)
 
 
 @pytest.fixture(scope="module")
@@ -44,6 +52,10 @@ def grasp_batch(sim, cfg):
     """56 worlds: 40 isolated cubes grasped correctly, 8 empty spots, 8 long cuboids grasped
     with the closing axis along their 10 cm length.  One jitted grasp call."""
     sc = scenarios(N_CUBE, N_EMPTY, N_LONG, sim.P, cfg)
+    # Two hand-chosen worlds for the travel test: world 0's cube at the workspace centre, and
+    # the last empty-spot world (no object at all) grasping at (0.1, 0.1).
+    sc["pos"][0, CUBE, :2] = sc["position"][0, :2] = (0.0, 0.0)
+    sc["position"][EMPTY_TABLE, :2] = (0.1, 0.1)
     state = sim.set_objects(sim.empty(sc["pos"].shape[0]), sc["pos"], sc["quat"], sc["active"])
     new_state, res = sim.grasp_at(state, sc["position"], sc["yaw"])
     jax.block_until_ready(res.success)
@@ -96,15 +108,24 @@ def test_grasp_along_long_axis_of_cuboid_fails(grasp_batch):
     assert np.asarray(st.active[lg, LONG]).all()
 
 
-def test_grasp_travel_distances(grasp_batch, cfg):
-    res, position = grasp_batch["res"], grasp_batch["position"]
-    z = np.maximum(position[:, 2], cfg.grasp.min_height_above_table)
-    pre = np.concatenate([position[:, :2], (z + cfg.grasp.approach_height)[:, None]], axis=1)
-    expect = np.linalg.norm(pre - np.array(cfg.camera.global_position), axis=1)
-    np.testing.assert_allclose(np.asarray(res.approach), expect, rtol=1e-5)
-    np.testing.assert_allclose(np.asarray(res.descend), cfg.grasp.approach_height, rtol=1e-5)
-    np.testing.assert_allclose(np.asarray(res.lift), cfg.grasp.lift_height)
-    assert isinstance(res, GraspResult) and res.success.shape == (position.shape[0],)
+def test_grasp_travel_distances(grasp_batch):
+    """Commanded travel, hand-computed for two worlds.  The approach runs from the global
+    capture position (0, -0.25, 0.60) to 15 cm above the grasp point:
+      * world 0, cube (5 cm) at the centre: grasp point z = 0.05 - 0.03 = 0.02, pre-grasp
+        (0, 0, 0.17), approach = |(0, 0.25, -0.43)| = sqrt(0.2474) = 0.497393 m;
+      * world EMPTY_TABLE, nothing on the table, grasp at (0.1, 0.1): the grasp point
+        (z = -0.03) is raised to the 5 mm floor, pre-grasp (0.1, 0.1, 0.155),
+        approach = |(0.1, 0.35, -0.445)| = sqrt(0.330525) = 0.574913 m.
+    The commanded descent is the whole 15 cm (the guarded descent simulates only its end) and
+    the lift 15 cm, in every world."""
+    res = grasp_batch["res"]
+    approach = np.asarray(res.approach)
+    np.testing.assert_allclose(approach[[0, EMPTY_TABLE]], [0.497393, 0.574913], rtol=1e-5)
+    np.testing.assert_allclose(np.asarray(res.descend), 0.15, rtol=1e-5)
+    np.testing.assert_allclose(np.asarray(res.lift), 0.15, rtol=1e-6)
+    # Any approach is at least the vertical drop from the capture height to the pre-grasp pose.
+    assert (approach >= 0.60 - (0.05 - 0.03 + 0.15) - 1e-6).all()
+    assert isinstance(res, GraspResult) and res.success.shape == (approach.shape[0],)
 
 
 def test_guarded_descent_starts_above_the_highest_object_within_reach(sim, scene, cfg):
