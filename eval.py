@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Benchmark a grasping policy (DESIGN.md "Benchmark"): groups of k objects, R rounds each.
+"""Benchmark a grasping policy (docs/benchmark.md): groups of k objects, R rounds each.
 
     python eval.py --run runs/tiny --groups 1,2,3 --rounds 4          # trained GDNet, greedy
     python eval.py --run runs/tiny --policy heuristic --groups 1-3    # scripted baseline, same config

@@ -6,7 +6,7 @@ import pytest
 from vags_jax.config import Config, replace
 from vags_jax.scene import PALETTE, SHAPES, build_scene
 
-VPG_SIZES = {  # name -> bounding box (m), from reference/prior_systems.md
+VPG_SIZES = {  # name -> bounding box (m) of VPG's blocks (docs/baselines.md)
     "cuboid_long": (0.10, 0.05, 0.05),
     "cuboid_flat": (0.10, 0.05, 0.025),
     "cube": (0.05, 0.05, 0.05),

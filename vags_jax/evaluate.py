@@ -1,4 +1,4 @@
-"""The benchmark of DESIGN.md ("Benchmark", paper section 4.4) for the policies that exist now.
+"""The benchmark of docs/benchmark.md (paper section 4.4) for the policies that exist now.
 
 Protocol.  For every group size ``k`` (default 1..10) run ``R`` rounds (default 50).  All R
 rounds of a group are R parallel worlds of ONE batch: each starts with ``k`` objects drawn from
