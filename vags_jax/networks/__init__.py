@@ -1,4 +1,5 @@
-"""Q-networks for VAGS: trunks (DenseNet-121, small), GDNet / VANet, rotations, pretrained loading.
+"""Networks for VAGS: trunks (DenseNet-121, small), GDNet / VANet, rotations, pretrained loading;
+and GG-CNN (``ggcnn.py``; its processing, labels and training live in ``vags_jax.ggcnn_*``).
 
 Typical use::
 
@@ -10,6 +11,7 @@ Typical use::
                          mutable=["batch_stats"])          # (B, 1, 224, 224): executed rotation
 """
 from .densenet import DenseNet121
+from .ggcnn import GGCNN, GGCNNConfig, GraspMaps, init_ggcnn
 from .pretrained import densenet121_key_map, load_densenet121, read_state_dict, to_torchvision_state_dict
 from .qnet import (
     GDNet,
@@ -35,7 +37,7 @@ from .rotation import rotate, sample_bilinear, source_coords, unrotate
 from .small import SmallTrunk
 
 __all__ = [
-    "DenseNet121", "SmallTrunk", "GDNet", "VANet", "QHead", "TrunkGeometry",
+    "DenseNet121", "SmallTrunk", "GGCNN", "GGCNNConfig", "GraspMaps", "init_ggcnn", "GDNet", "VANet", "QHead", "TrunkGeometry",
     "make_qnet", "init_qnet", "init_variables", "variable_shapes", "make_trunk", "trunk_geometry", "padded_size", "rotation_angles",
     "normalise_colour", "normalise_height", "pad_inputs", "rotated_inputs", "coarse_to_heightmap",
     "count_params", "rotate", "unrotate", "sample_bilinear", "source_coords",
