@@ -5,6 +5,7 @@
     python eval.py --run runs/tiny --policy heuristic --groups 1-3    # scripted baseline, same config
     python eval.py --config tiny --policy random --groups 1,2 --rounds 8 --out runs/random.json
     python eval.py --run runs/gpu --set scene.max_objects=10 scene.copies_per_shape=2   # 1..10
+    python eval.py --run runs/gpu --objects unseen      # held-out shapes the GDNet never saw
 
 Policies: gdnet (needs --run: its config.json and latest checkpoint, or --step), random,
 highest, heuristic (see vags_jax/evaluate.py).  The configuration is the run's config.json
@@ -33,6 +34,12 @@ def parse_args(argv=None):
     p.add_argument("--step", type=int, default=None, help="checkpoint step for gdnet (default: latest)")
     p.add_argument("--out", default=None, help="JSON report path (default: RUN/eval_<policy>.json)")
     p.add_argument("--speed", type=float, default=None, help="motion-time model: gripper speed m/s (default 0.5)")
+    p.add_argument("--objects", default=None, choices=("train", "unseen", "legacy"),
+                   help="object set of the scenes (default: the config's pool; 'unseen': the held-out "
+                        "shapes, never trained on)")
+    p.add_argument("--scenes", default=None, choices=("paper", "legacy"),
+                   help="'legacy': the first benchmark's scenes (fixed blocks scattered apart, noiseless "
+                        "camera from the old pose), for comparisons with earlier results")
     return p.parse_args(argv)
 
 
@@ -77,7 +84,11 @@ def main(argv=None) -> int:
             run_cfg = checkpoint.load_config(args.run)
         else:
             run_cfg = C.preset(args.config or "tiny")
-        cfg = C.replace(run_cfg, **C.parse_overrides(args.set))
+        scene_over = dict(C.LEGACY_SCENES) if args.scenes == "legacy" else {}
+        if args.objects:
+            scene_over.update({"scene.shapes": C.object_pool(args.objects, run_cfg.scene.pool_size),
+                               "scene.copies_per_shape": 1})
+        cfg = C.replace(run_cfg, **scene_over, **C.parse_overrides(args.set))
         if policy == "gdnet" and (cfg.net != run_cfg.net or cfg.workspace != run_cfg.workspace):
             raise ValueError("--set must not change net.* or workspace.*: the trained GDNet needs the "
                              "network and heightmaps it was trained with")
@@ -91,7 +102,8 @@ def main(argv=None) -> int:
 
     out = args.out
     if out is None and args.run:
-        out = os.path.join(args.run, f"eval_{policy}" + (f"_step{step}" if step is not None else "") + ".json")
+        tag = "".join(f"_{t}" for t in (args.objects, args.scenes) if t)
+        out = os.path.join(args.run, f"eval_{policy}{tag}" + (f"_step{step}" if step is not None else "") + ".json")
     print(f"evaluating {policy}" + (f" ({args.run}, checkpoint {step})" if step is not None else "")
           + f": groups {groups}, {args.rounds} rounds each, impl={cfg.sim.impl}, devices={jax.devices()}",
           file=sys.stderr)

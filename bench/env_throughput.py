@@ -52,7 +52,7 @@ def bench_one(cfg, n_worlds, n_objects, repeats, loop_iterations=0, only_loop=Fa
 
     @jax.jit
     def observe(state):
-        return env.observe_global(state.sim)
+        return env.observe_global(state.sim, jax.random.PRNGKey(0))  # key: the sensor model's noise
 
     @jax.jit
     def attempt(key, n):

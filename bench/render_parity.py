@@ -127,8 +127,10 @@ def measure(cfg, worlds: int, objects: int) -> dict:
     for backend in ("jax", "warp"):
         geo = render.prepare_geometry(env.scene.mj_model, env.scene.render_geom_mask, backend=backend,
                                       cam_cfg=cfg.camera, n_worlds=worlds)
-        o = jax.jit(lambda xp, xm, rgb, ps: render.render_full(geo, xp, xm, rgb, ps, cfg.camera))(
-            d.geom_xpos, d.geom_xmat, state.sim.geom_rgb, pose)
+        # Objects of drawn sizes: both renderers take the per-world geom sizes (exact depth;
+        # the sensor model is not part of the comparison).
+        o = jax.jit(lambda xp, xm, rgb, ps, sz: render.render_full(geo, xp, xm, rgb, ps, cfg.camera, geom_size=sz))(
+            d.geom_xpos, d.geom_xmat, state.sim.geom_rgb, pose, env.sim.geom_size(state.sim))
         hm = heightmap.heightmaps(o.depth, o.rgb, pose, cfg.camera, cfg.workspace)
         out[backend] = (np.asarray(o.depth), np.asarray(o.geom_id), np.asarray(hm[1]))
     (dj, gj, hj), (dw, gw, hw) = out["jax"], out["warp"]

@@ -7,9 +7,14 @@ from vags_jax import config as C
 from vags_jax.env import VagsEnv, where_worlds
 
 
+# Exact-rendering checks below compare images: the sensor model (on by default) is off here;
+# test_observe_with_depth_noise checks it.
+CLEAN = {"camera.noise.enabled": False}
+
+
 @pytest.fixture(scope="module")
 def env(tiny_cfg):
-    return VagsEnv(tiny_cfg)
+    return VagsEnv(C.replace(tiny_cfg, **CLEAN))
 
 
 @pytest.fixture(scope="module")
@@ -50,7 +55,7 @@ def test_grasp_at_rejects_bad_shapes(env, state):
 
 
 def test_rendering_in_world_chunks_is_identical(tiny_cfg, env, state):
-    chunked = VagsEnv(C.replace(tiny_cfg, **{"camera.render_batch": 1}))
+    chunked = VagsEnv(C.replace(tiny_cfg, **{"camera.render_batch": 1, **CLEAN}))
     color, height = jax.jit(chunked.observe_global)(state.sim)
     ref_color, ref_height = jax.jit(env.observe_global)(state.sim)
     np.testing.assert_array_equal(np.asarray(height), np.asarray(ref_height))
@@ -72,7 +77,7 @@ def test_observe_matches_colouring_the_whole_image(tiny_cfg, env, state):
     whole image (`render.render_full`) and taking the heightmaps of it."""
     from vags_jax import heightmap, render
 
-    cfg = tiny_cfg
+    cfg = env.cfg
     sim = state.sim
     pose = jax.numpy.broadcast_to(jax.numpy.asarray(env.global_pose), (2, 4, 4))
     geometry = env.geometry(2)

@@ -93,8 +93,8 @@ def test_depth_noise():
     key = jax.random.PRNGKey(0)
     depth = jnp.full((2, 40, 50), 0.6).at[:, 0].set(0.0)
     cos = jnp.ones_like(depth).at[:, 1].set(0.1)  # row 1 seen at ~84 deg
-    assert render.add_depth_noise(key, depth, cos, DepthNoise()) is depth  # disabled: identity
-    cfg = DepthNoise(enabled=True, sigma_base=0.002, sigma_quadratic=0.0)
+    assert render.add_depth_noise(key, depth, cos, DepthNoise(enabled=False)) is depth  # disabled: identity
+    cfg = DepthNoise(enabled=True, sigma_base=0.002, sigma_quadratic=0.0, disparity_step=0.0)
     noisy = np.asarray(render.add_depth_noise(key, depth, cos, cfg))
     assert np.all(noisy[:, 0] == 0) and np.all(noisy[:, 1] == 0)  # missing stays missing; grazing drops
     rest = noisy[:, 2:] - 0.6

@@ -142,7 +142,10 @@ def test_mjx_contact_budget_is_scene_sized(scene):
     """MJX jax keeps only contacts_per_world contacts (deepest first) instead of ~1000."""
     from mujoco import mjx
 
-    from vags_jax.scene import contacts_per_world
+    from vags_jax.config import object_pool
+    from vags_jax.scene import contacts_per_world, rows_per_contact
+
+    C_legacy = object_pool("legacy", 10)
 
     cfg = scene.cfg
     # 10 objects: 4 on the table + ~16 with other objects each, 2 pads x 3 objects x 8, 8 pads
@@ -150,6 +153,9 @@ def test_mjx_contact_budget_is_scene_sized(scene):
     assert contacts_per_world(cfg) == 256
     d = mjx.make_data(mjx.put_model(scene.mj_model, impl="jax"), impl="jax")
     assert d._impl.ncon == contacts_per_world(cfg)
-    assert d._impl.nefc <= 3 * contacts_per_world(cfg) + 16
+    # Capsules roll with rolling friction (condim 6): up to 6 rows per contact; 3 without them.
+    assert rows_per_contact(cfg) == 6
+    assert rows_per_contact(replace(cfg, **{"scene.shapes": C_legacy})) == 3
+    assert d._impl.nefc <= 6 * contacts_per_world(cfg) + 16
     small = replace(cfg, **{"sim.contacts_per_world": 64})
     assert contacts_per_world(small) == 64

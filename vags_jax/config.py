@@ -63,19 +63,98 @@ class Workspace:
         return (cx - h, cx + h, cy - h, cy + h)
 
 
+# Object sets: the pool of a scene (``Scene.shapes``) is drawn from one of them (shape
+# geometry and the size ranges live in ``vags_jax.scene``).
+#   train:  cuboids whose three sides are each drawn from ``Scene.box_side`` (cubes, flat, long
+#           and tall blocks and everything between) and capsules of drawn radius and length.
+#           The training and default benchmark set.
+#   unseen: held out (never trained on): arch, triangular prism, half cylinder, disc and upright
+#           cylinder at VPG's block sizes, and spheres of a drawn radius.  No (shape, size
+#           range) is shared with ``train``.  ``eval.py --objects unseen``.
+#   legacy: the ten fixed-size blocks of the first benchmark (VPG's 8 blocks + prism + half
+#           cylinder), for comparisons with earlier results.
+OBJECT_SETS: dict[str, tuple[str, ...]] = {
+    "train": ("box", "capsule", "box", "box", "capsule"),
+    "unseen": ("arch", "prism", "half_cylinder", "disc", "cylinder", "sphere"),
+    "legacy": ("cuboid_long", "cuboid_flat", "cube", "cuboid_tall", "cube_half", "arch",
+               "disc", "cylinder", "prism", "half_cylinder"),
+}
+
+
+def object_pool(set_name: str, n: int) -> tuple[str, ...]:
+    """A pool of ``n`` bodies: object set ``set_name``'s shapes repeated cyclically.
+
+    With 10 slots, ``train`` gives 6 boxes and 4 capsules; ``unseen`` each of its six shapes
+    once or twice; ``legacy`` its ten blocks once.
+    """
+    if set_name not in OBJECT_SETS:
+        raise ValueError(f"unknown object set {set_name!r}; choose one of {sorted(OBJECT_SETS)}")
+    if not (isinstance(n, int) and not isinstance(n, bool) and n >= 1):
+        raise ValueError(f"object_pool needs n >= 1 bodies, got {n!r}")
+    names = OBJECT_SETS[set_name]
+    return tuple(names[i % len(names)] for i in range(n))
+
+
+PLACEMENTS = ("pile", "scatter")
+
+# The first benchmark's scenes (before the paper's protocol was followed): the ten fixed blocks
+# dropped apart, exact palette colours, a noiseless camera 23 deg off vertical.  For comparisons
+# with results measured on them (``eval.py --scenes legacy``); ``--set`` pairs.
+LEGACY_SCENES = {
+    "scene.shapes": OBJECT_SETS["legacy"],
+    "scene.placement": "scatter",
+    "scene.colour_jitter": 0.0,
+    "camera.noise.enabled": False,
+    "camera.global_position": (0.0, -0.25, 0.60),
+}
+
+
+def _check_range(name: str, r, lo_bound: float, hi_bound: float) -> None:
+    _check(
+        isinstance(r, (tuple, list)) and len(r) == 2
+        and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in r),
+        f"{name} must be a range (min, max) of two numbers in metres, got {r!r}",
+    )
+    _check(r[0] <= r[1], f"{name} = {tuple(r)}: min > max; give (min, max)")
+    _check(lo_bound <= r[0] and r[1] <= hi_bound,
+           f"{name} = {tuple(r)} must lie within [{lo_bound}, {hi_bound}] m (positive sizes the "
+           "gripper can still hold)")
+
+
 @dataclass(frozen=True)
 class Scene:
-    """Objects on the table.  ``max_objects`` is N, the number of object slots per world."""
+    """Objects on the table.  ``max_objects`` is N, the number of object slots per world.
+
+    The default follows the paper's protocol (section 4): every reset draws each object's
+    shape (from the pool), size and colour per world, and drops the objects one after another
+    over a small region so that they land on each other (``placement = "pile"``).
+    """
 
     max_objects: int = 10
     # Names from vags_jax.scene.SHAPES; the pool holds `copies_per_shape` bodies of each,
     # and each reset draws its objects from that pool (random shapes per reset).
-    shapes: tuple[str, ...] = (
-        "cuboid_long", "cuboid_flat", "cube", "cuboid_tall", "cube_half", "arch",
-        "disc", "cylinder", "prism", "half_cylinder",
-    )
+    # Default: object_pool("train", 10) = 6 boxes and 4 capsules of drawn sizes.
+    shapes: tuple[str, ...] = ("box", "capsule", "box", "box", "capsule",
+                               "box", "capsule", "box", "box", "capsule")
     copies_per_shape: int = 1  # 1: the pool is the N = 10 object slots (1.5x faster physics than 2)
-    drop_height: float = 0.15  # m above the table
+    # Size ranges of the drawn families (metres).  Box: each of the three sides drawn
+    # independently (volume 16 cm^3 .. 512 cm^3 at the defaults, around VPG's 2.5-10 cm
+    # blocks; at most 8 cm so one side always fits the 8.5 cm stroke).  Capsule: radius and
+    # the length of its cylinder part.  Sphere (unseen set only): radius.
+    box_side: tuple[float, float] = (0.025, 0.08)
+    capsule_radius: tuple[float, float] = (0.015, 0.03)
+    capsule_length: tuple[float, float] = (0.02, 0.08)
+    sphere_radius: tuple[float, float] = (0.018, 0.03)
+    # Colours: a palette colour per object (distinct within a world for up to 10 objects),
+    # each channel scaled by a factor drawn from [1 - colour_jitter, 1 + colour_jitter].
+    colour_jitter: float = 0.15
+    # "pile": objects dropped one after another (stacked spawn heights, lowest first) over a
+    # disc of radius ``pile_radius`` at a random centre, so they land on each other: stacks,
+    # leaning objects, occlusion.  "scatter": x, y uniform over the workspace shrunk by
+    # ``drop_margin`` (the first benchmark's scenes).
+    placement: str = "pile"
+    pile_radius: float = 0.025  # m (drop positions; the pile spreads wider as objects land and tip)
+    drop_height: float = 0.15  # m above the table (the lowest object's centre)
     drop_margin: float = 0.1  # m kept clear of the workspace edge when dropping
     settle_time: float = 1.0  # s of simulation after dropping
     friction: float = 1.0  # sliding friction of objects and table
@@ -98,6 +177,18 @@ class Scene:
             f"{self.max_objects}; raise copies_per_shape or lower max_objects",
         )
         _check(self.settle_time >= 0, "Scene.settle_time must be >= 0 seconds")
+        _check_range("Scene.box_side", self.box_side, 0.005, 0.08)
+        _check_range("Scene.capsule_radius", self.capsule_radius, 0.005, 0.04)
+        _check_range("Scene.capsule_length", self.capsule_length, 0.0, 0.15)
+        _check_range("Scene.sphere_radius", self.sphere_radius, 0.005, 0.04)
+        _check(isinstance(self.colour_jitter, (int, float)) and 0.0 <= self.colour_jitter <= 0.5,
+               f"Scene.colour_jitter must be in [0, 0.5], got {self.colour_jitter!r}")
+        _check(self.placement in PLACEMENTS,
+               f"Scene.placement must be one of {PLACEMENTS}, got {self.placement!r}")
+        _check(isinstance(self.pile_radius, (int, float)) and 0.0 <= self.pile_radius <= 0.2,
+               f"Scene.pile_radius must be in [0, 0.2] m, got {self.pile_radius!r}")
+        _check(self.friction > 0, f"Scene.friction must be > 0, got {self.friction}")
+        _check(self.object_density > 0, f"Scene.object_density must be > 0, got {self.object_density}")
 
     @property
     def pool_size(self) -> int:
@@ -242,13 +333,49 @@ class Grasp:
 
 @dataclass(frozen=True)
 class DepthNoise:
-    """Optional RGB-D sensor noise for robustness experiments (off by default)."""
+    """Depth model of a structured-light / active-stereo RGB-D sensor (on by default).
 
-    enabled: bool = False
-    sigma_base: float = 0.001  # m, std of depth noise at 1 m ...
-    sigma_quadratic: float = 0.0019  # ... grows as sigma_base + sigma_quadratic * (z - 0.4)^2
-    grazing_dropout_deg: float = 75.0  # pixels seen at more than this incidence go missing
-    dropout_prob: float = 0.0  # extra random missing pixels
+    Applied to every rendered depth image, global and close views alike (``render.add_depth_noise``):
+
+    * steep faces: pixels whose surface is seen at an incidence above ``grazing_dropout_deg``
+      (angle between the ray and the surface normal) return no depth;
+    * object edges: pixels next to a depth discontinuity larger than ``edge_jump`` (within
+      ``edge_width`` pixels of it, either side) return no depth with probability
+      ``edge_dropout`` (the projector's shadow and mixed pixels of real sensors);
+    * noise: Gaussian, standard deviation ``sigma_base + sigma_quadratic * (z - 0.4)^2`` metres at
+      depth z (an axial-noise model fitted to structured-light sensors: about 1.2 mm at
+      0.5 m and 1.6 mm at 0.9 m);
+    * quantisation: disparity ``fx * baseline / z`` is rounded to steps of
+      ``disparity_step`` pixels (about 1.3 mm at 0.6 m with the defaults; 0 = off);
+    * ``dropout_prob``: extra missing pixels at random (default 0).
+    Missing pixels have depth 0 and leave their heightmap cells at 0, as a real sensor's holes.
+    ``enabled = False`` gives the renderer's exact depth (``--set camera.noise.enabled=false``).
+    """
+
+    enabled: bool = True
+    sigma_base: float = 0.0012  # m
+    sigma_quadratic: float = 0.0019  # m per m^2
+    grazing_dropout_deg: float = 75.0
+    edge_jump: float = 0.01  # m between neighbouring pixels
+    edge_width: int = 1  # px on each side of a discontinuity
+    edge_dropout: float = 0.5
+    disparity_step: float = 0.125  # px (sub-pixel disparity resolution)
+    baseline: float = 0.055  # m, projector-to-camera baseline
+    dropout_prob: float = 0.0
+
+    def __post_init__(self):
+        for name in ("sigma_base", "sigma_quadratic", "edge_jump", "disparity_step"):
+            v = getattr(self, name)
+            _check(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v >= 0,
+                   f"DepthNoise.{name} must be a finite number >= 0, got {v!r}")
+        _check(0 < self.grazing_dropout_deg <= 90,
+               f"DepthNoise.grazing_dropout_deg must be in (0, 90], got {self.grazing_dropout_deg}")
+        _check(isinstance(self.edge_width, int) and not isinstance(self.edge_width, bool)
+               and 0 <= self.edge_width <= 8, f"DepthNoise.edge_width must be an int in 0..8, got {self.edge_width!r}")
+        for name in ("edge_dropout", "dropout_prob"):
+            v = getattr(self, name)
+            _check(0.0 <= v <= 1.0, f"DepthNoise.{name} must be a probability in [0, 1], got {v}")
+        _check(self.baseline > 0, f"DepthNoise.baseline must be > 0 m, got {self.baseline}")
 
 
 @dataclass(frozen=True)
@@ -263,8 +390,12 @@ class Camera:
     cy: Optional[float] = None
     near: float = 0.05
     far: float = 2.0
-    # Preset global pose: position, and the point it looks at.
-    global_position: tuple[float, float, float] = (0.0, -0.25, 0.60)
+    # Preset global pose: position, and the point it looks at.  From the front of the table
+    # and 34 deg off vertical (not straight above the workspace centre, as the eye-in-hand
+    # camera of a robot standing at the table edge): the whole workspace, and 12 cm tall
+    # objects at its far edge, fall inside the 640 x 480 image (u 55..585, v 38..424), and
+    # objects shadow what lies behind them.  The first benchmark used (0, -0.25, 0.60).
+    global_position: tuple[float, float, float] = (0.0, -0.42, 0.62)
     global_target: tuple[float, float, float] = (0.0, 0.0, 0.0)
     viewpoint_height: float = 0.25  # m above the surface height at the chosen pixel
     noise: DepthNoise = field(default_factory=DepthNoise)
@@ -507,7 +638,8 @@ def tiny() -> Config:
         # The default 1 s settle: after 0.4 s (this preset's old value) cuboids were still
         # rocking when the first view was taken, and the heuristic's first grasps succeeded in
         # 25 of 48 fresh scenes instead of 37 of 48 (MJX jax, CPU; bench/RESULTS.md).
-        scene=Scene(max_objects=3, shapes=("cube", "cuboid_long", "cuboid_tall"), copies_per_shape=1),
+        # Three slots of the training set (2 boxes, 1 capsule of drawn sizes), piled.
+        scene=Scene(max_objects=3, shapes=object_pool("train", 3), copies_per_shape=1),
         # impratio 1 instead of 10: under MJX jax (this preset's CPU physics) the heuristic's
         # first grasps in fresh scenes sent 4 of 48 worlds to NaN with impratio 10 (two draws),
         # 0 of 48 with 1, and succeeded in 44-45 instead of 37; the scripted cube / empty /

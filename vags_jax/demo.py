@@ -6,7 +6,8 @@
 Writes PNGs into --out (heightmaps drawn as seen from above: +x to the right, +y UP, i.e. the
 heightmap's rows flipped; camera images as the camera sees them):
 
-  global_rgb.png / global_depth.png        the eye-in-hand camera at the preset global pose
+  global_rgb.png / global_depth.png        the eye-in-hand camera at the preset global pose (depth
+                                           through the sensor model: black = no depth returned)
   heightmap_color.png / heightmap_height.png  colour and height heightmaps of that view (heights:
                                            dark grey at table level, false colour above 1 cm)
   viewpoint_rgb.png / viewpoint_depth.png   re-render from ``camera.viewpoint_pose`` above each
@@ -71,8 +72,16 @@ def _say(*args) -> None:
     print(*args, flush=True)
 
 
-def _objects(env: VagsEnv, active_row: np.ndarray) -> list[str]:
-    return [f"{env.scene.shape_names[i]}#{i}" for i in np.flatnonzero(active_row)]
+def _describe(env: VagsEnv, sim_state, b: int) -> str:
+    """World b's objects with their bounding boxes (cm) and whether each one rests on another."""
+    aabb, _ = env.sim.object_bounds(sim_state.obj_size[b:b + 1])
+    extents = 2 * np.asarray(aabb[0, :, 3:])
+    bottom = np.asarray(env.sim.object_bottoms(sim_state)[b])
+    out = []
+    for i in np.flatnonzero(np.asarray(sim_state.active[b])):
+        dims = "x".join(f"{100 * v:.1f}" for v in extents[i])
+        out.append(f"{env.scene.shape_names[i]}#{i} ({dims} cm{' on top' if bottom[i] > 0.005 else ''})")
+    return ", ".join(out)
 
 
 def main(argv=None) -> int:
@@ -106,21 +115,25 @@ def main(argv=None) -> int:
     state = env.reset(k_reset, n_objects)
     _say(f"[{time.time() - t0:5.1f} s] reset: objects dropped and settled")
     for b in range(B):
-        _say(f"  world {b}: {', '.join(_objects(env, np.asarray(state.sim.active[b])))}")
+        _say(f"  world {b}: {_describe(env, state.sim, b)}")
 
     geometry = env.geometry(B)
 
     @jax.jit
-    def views(sim_state, poses):
-        """Render every world from poses (B, 4, 4) -> depth, rgb, colour and height heightmaps."""
+    def views(sim_state, poses, key):
+        """Render every world from poses (B, 4, 4) through the sensor model (``camera.noise``)
+        -> depth (0 = the sensor's holes), rgb, colour and height heightmaps."""
         d = sim_state.data
-        out = render.render_full(geometry, d.geom_xpos, d.geom_xmat, sim_state.geom_rgb, poses, cfg.camera)
-        col, hgt = heightmap.heightmaps(out.depth, out.rgb, poses, cfg.camera, cfg.workspace)
-        return out.depth, out.rgb, col, hgt
+        out = render.render_full(geometry, d.geom_xpos, d.geom_xmat, sim_state.geom_rgb, poses, cfg.camera,
+                                 geom_size=env.sim.geom_size(sim_state))
+        depth = render.add_depth_noise(key, out.depth, out.cos_incidence, cfg.camera.noise, cfg.camera.fx)
+        col, hgt = heightmap.heightmaps(depth, out.rgb, poses, cfg.camera, cfg.workspace)
+        return depth, out.rgb, col, hgt
 
     # ---- global view
     g_pose = jnp.broadcast_to(jnp.asarray(env.global_pose), (B, 4, 4))
-    depth, rgb, col, hgt = jax.device_get(views(state.sim, g_pose))
+    k_view = jax.random.fold_in(key, 7)
+    depth, rgb, col, hgt = jax.device_get(views(state.sim, g_pose, k_view))
     images.save_png(os.path.join(args.out, "global_rgb.png"), images.tile(list(rgb), cols=B))
     dmax = float(depth.max()) or 1.0
     images.save_png(os.path.join(args.out, "global_depth.png"),
@@ -132,14 +145,16 @@ def main(argv=None) -> int:
     images.save_png(os.path.join(args.out, "heightmap_height.png"),
                     images.tile([_hm_picture(_height_colours(h, hmax, thr), scale) for h in hgt], cols=B))
     _say(f"[{time.time() - t0:5.1f} s] global view rendered: heights up to {100 * hgt.max():.1f} cm, "
-          f"object cells per world {(hgt > cfg.exploration.height_threshold).sum(axis=(1, 2)).tolist()}")
+          f"object cells per world {(hgt > cfg.exploration.height_threshold).sum(axis=(1, 2)).tolist()}, "
+          f"sensor holes {np.round(100 * (depth == 0).mean(axis=(1, 2)), 1).tolist()} % of pixels "
+          f"(sensor model {'on' if cfg.camera.noise.enabled else 'off'})")
 
     # ---- viewpoint above each world's highest point (what VANet's action does)
     highest = jax.jit(highest_act(cfg))
     min_width = jax.jit(lambda hm: min_width_grasp(hm, cfg)[0])
     vp_pixel = np.asarray(highest(None, None, state))[:, 1:]
     vp_pose = camera.viewpoint_pose(jnp.asarray(vp_pixel), jnp.asarray(hgt), cfg.workspace, cfg.camera)
-    vdepth, vrgb, vcol, vhgt = jax.device_get(views(state.sim, vp_pose))
+    vdepth, vrgb, vcol, vhgt = jax.device_get(views(state.sim, vp_pose, jax.random.fold_in(k_view, 1)))
     images.save_png(os.path.join(args.out, "viewpoint_rgb.png"), images.tile(list(vrgb), cols=B))
     images.save_png(os.path.join(args.out, "viewpoint_depth.png"),
                     images.tile([images.colorize(d, vmin=cfg.camera.near) for d in vdepth], cols=B))

@@ -119,13 +119,17 @@ class VagsEnv:
         chunk = cfg.camera.render_batch
         geometry = self.geometry(min(B, chunk))
 
-        def one_batch(xpos, xmat, rgb, pose, k):
-            clean, gid, cos = render.depth_and_segmentation(geometry, xpos, xmat, pose, cfg.camera)
+        size = self.sim.geom_size(sim_state)  # (B, ngeom, 3), or None: no size is drawn
+        sized = size is not None
+
+        def one_batch(xpos, xmat, rgb, pose, k, size):
+            clean, gid, cos = render.depth_and_segmentation(geometry, xpos, xmat, pose, cfg.camera,
+                                                            geom_size=size if sized else None)
             depth = clean
             if cfg.camera.noise.enabled:
                 if cos is None:
                     cos = render.normals_from_depth(clean, cfg.camera)
-                depth = jax.vmap(lambda kk, dd, cc: render.add_depth_noise(kk, dd[None], cc[None], cfg.camera.noise)[0])(
+                depth = jax.vmap(lambda kk, dd, cc: render.add_depth_noise(kk, dd[None], cc[None], cfg.camera.noise, cfg.camera.fx)[0])(
                     k, depth, cos)
             height, source = heightmap.height_and_source(depth, pose, cfg.camera, cfg.workspace)
             # Colour only where the heightmap uses it, at each cell's source pixel: the same
@@ -138,7 +142,8 @@ class VagsEnv:
             color = render.shade(g, c, rgb).reshape(height.shape + (3,))
             return color, height
 
-        args = (d.geom_xpos, d.geom_xmat, sim_state.geom_rgb, cam_pose, keys)
+        args = (d.geom_xpos, d.geom_xmat, sim_state.geom_rgb, cam_pose, keys,
+                size if sized else jnp.zeros((B,), jnp.float32))
         if B <= chunk:
             return one_batch(*args)
         # Render groups of `chunk` worlds one after the other: memory stays that of one group

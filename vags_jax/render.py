@@ -60,6 +60,7 @@ class Polytopes:
     geom_ids: jnp.ndarray  # (G,) int32 MuJoCo geom index
     normals: jnp.ndarray  # (G, P, 3) unit outward normals (zero rows = padding)
     offsets: jnp.ndarray  # (G, P); padding rows have offset 1
+    is_box: jnp.ndarray  # (G,) bool: a box, whose offsets follow a per-world geom_size
 
 
 @struct.dataclass
@@ -67,6 +68,7 @@ class Spheres:
     geom_ids: jnp.ndarray  # (S,) int32; a capsule contributes two spheres
     centers: jnp.ndarray  # (S, 3) centre in the geom frame
     radii: jnp.ndarray  # (S,)
+    cap_end: jnp.ndarray  # (S,) 0 for a sphere, +1 / -1 for a capsule's end at z = +-size[1]
 
 
 @struct.dataclass
@@ -160,22 +162,22 @@ def prepare_geometry(
         name = mujoco.mj_id2name(mj_model, mujoco.mjtObj.mjOBJ_GEOM, int(g)) or f"#{g}"
         if gtype == _BOX:
             eye = np.eye(3)
-            polys.setdefault(6, []).append((g, np.concatenate([eye, -eye]), np.concatenate([size, size])))
+            polys.setdefault(6, []).append((g, np.concatenate([eye, -eye]), np.concatenate([size, size]), True))
         elif gtype == _PLANE:
             ex = size[0] if size[0] > 0 else plane_extent
             ey = size[1] if size[1] > 0 else plane_extent
             n = np.array([[0, 0, 1], [1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0]], np.float64)
-            polys.setdefault(6, []).append((g, n, np.array([0.0, ex, ex, ey, ey])))
+            polys.setdefault(6, []).append((g, n, np.array([0.0, ex, ex, ey, ey]), False))
         elif gtype == _MESH:
             n, c = _mesh_halfspaces(mj_model, int(mj_model.geom_dataid[g]), name)
-            polys.setdefault(len(n), []).append((g, n, c))
+            polys.setdefault(len(n), []).append((g, n, c, False))
         elif gtype == _SPHERE:
-            sph.append((g, (0.0, 0.0, 0.0), size[0]))
+            sph.append((g, (0.0, 0.0, 0.0), size[0], 0.0))
         elif gtype == _CYLINDER:
             cyl.append((g, size[0], size[1]))
         elif gtype == _CAPSULE:
             cyl.append((g, size[0], size[1]))
-            sph += [(g, (0.0, 0.0, size[1]), size[0]), (g, (0.0, 0.0, -size[1]), size[0])]
+            sph += [(g, (0.0, 0.0, size[1]), size[0], 1.0), (g, (0.0, 0.0, -size[1]), size[0], -1.0)]
         else:
             raise ValueError(
                 f"render: geom {name!r} has type {mujoco.mjtGeom(gtype).name}, which the jax "
@@ -191,14 +193,16 @@ def prepare_geometry(
     for pb, items in sorted(buckets.items()):
         nrm = np.zeros((len(items), pb, 3), np.float32)
         off = np.ones((len(items), pb), np.float32)
-        for i, (_, n, c) in enumerate(items):
+        for i, (_, n, c, _) in enumerate(items):
             nrm[i, : len(n)], off[i, : len(n)] = n, c
-        groups.append(Polytopes(jnp.asarray([it[0] for it in items], jnp.int32), jnp.asarray(nrm), jnp.asarray(off)))
+        groups.append(Polytopes(jnp.asarray([it[0] for it in items], jnp.int32), jnp.asarray(nrm),
+                                jnp.asarray(off), jnp.asarray([it[3] for it in items], bool)))
     spheres = (
         Spheres(
             jnp.asarray([s[0] for s in sph], jnp.int32),
             jnp.asarray([s[1] for s in sph], jnp.float32),
             jnp.asarray([s[2] for s in sph], jnp.float32),
+            jnp.asarray([s[3] for s in sph], jnp.float32),
         )
         if sph
         else None
@@ -314,23 +318,40 @@ def _cast_cylinders(o, d, rot, pos, radii, half_h, ids) -> _Hit:
     return _Hit(t_best, jnp.where(jnp.isfinite(t_best), ids[best], -1), normal)
 
 
-def _world_frame(geometry: Geometry, geom_xpos, geom_xmat, origin):
-    """Per-world, per-pixel-independent quantities: world planes, sphere centres, cylinders."""
+def _world_frame(geometry: Geometry, geom_xpos, geom_xmat, origin, geom_size=None):
+    """Per-world, per-pixel-independent quantities: world planes, sphere centres, cylinders.
+
+    geom_size: optional (ngeom, 3) MuJoCo geom sizes of this world (objects of drawn sizes);
+    boxes, spheres, capsules and cylinders then take their sizes from it instead of the
+    compiled model's (planes and meshes never change size).
+    """
     polys = []
     for g in geometry.polytopes:
         rot, pos = geom_xmat[g.geom_ids], geom_xpos[g.geom_ids]  # (G, 3, 3), (G, 3)
+        offsets = g.offsets
+        if geom_size is not None:  # box faces: n = +-e_i, offset = half side i
+            box_off = _dot3(jnp.abs(g.normals), geom_size[g.geom_ids][:, None, :])
+            offsets = jnp.where(g.is_box[:, None], box_off, offsets)
         nw = jnp.einsum("gij,gpj->gpi", rot, g.normals)
-        cw = g.offsets + _dot3(nw, pos[:, None, :])
+        cw = offsets + _dot3(nw, pos[:, None, :])
         polys.append((nw, cw - _dot3(nw, origin[None, None, :]), g.geom_ids))
     sph = None
     if geometry.spheres is not None:
         s = geometry.spheres
-        centers = geom_xpos[s.geom_ids] + jnp.einsum("sij,sj->si", geom_xmat[s.geom_ids], s.centers)
-        sph = (centers, s.radii, s.geom_ids)
+        centers_l, radii = s.centers, s.radii
+        if geom_size is not None:
+            size = geom_size[s.geom_ids]
+            radii = size[:, 0]
+            centers_l = jnp.zeros_like(centers_l).at[:, 2].set(s.cap_end * size[:, 1])
+        centers = geom_xpos[s.geom_ids] + jnp.einsum("sij,sj->si", geom_xmat[s.geom_ids], centers_l)
+        sph = (centers, radii, s.geom_ids)
     cyl = None
     if geometry.cylinders is not None:
         c = geometry.cylinders
-        cyl = (geom_xmat[c.geom_ids], geom_xpos[c.geom_ids], c.radii, c.half_heights, c.geom_ids)
+        radii, half_h = c.radii, c.half_heights
+        if geom_size is not None:
+            radii, half_h = geom_size[c.geom_ids, 0], geom_size[c.geom_ids, 1]
+        cyl = (geom_xmat[c.geom_ids], geom_xpos[c.geom_ids], radii, half_h, c.geom_ids)
     return polys, sph, cyl
 
 
@@ -354,7 +375,7 @@ class RenderOutput(NamedTuple):
     cos_incidence: jnp.ndarray  # (B, h, w) float32 |cos| of the angle between ray and normal
 
 
-def _cast_one(geometry, geom_xpos, geom_xmat, cam_pose, cam_cfg, chunk_pixels):
+def _cast_one(geometry, geom_xpos, geom_xmat, cam_pose, cam_cfg, chunk_pixels, geom_size=None):
     """One world, "jax" backend: (ngeom, 3), (ngeom, 3, 3), (4, 4) -> (depth (h, w) float32, 0 =
     nothing hit in [near, far]; geom id (h, w) int32, -1 = nothing hit; |cos incidence| (h, w))."""
     h, w = cam_cfg.height, cam_cfg.width
@@ -365,7 +386,7 @@ def _cast_one(geometry, geom_xpos, geom_xmat, cam_pose, cam_cfg, chunk_pixels):
     chunk = min(chunk_pixels, n)
     n_chunks = -(-n // chunk)
     dirs = jnp.pad(dirs, ((0, n_chunks * chunk - n), (0, 0)), constant_values=1.0)
-    polys, sph, cyl = _world_frame(geometry, geom_xpos, geom_xmat, origin)
+    polys, sph, cyl = _world_frame(geometry, geom_xpos, geom_xmat, origin, geom_size)
 
     def chunk_fn(d):
         hit = _cast(origin, d, polys, sph, cyl)
@@ -383,7 +404,8 @@ def _cast_one(geometry, geom_xpos, geom_xmat, cam_pose, cam_cfg, chunk_pixels):
     return depth.reshape(h, w), gid.reshape(h, w), cos.reshape(h, w)
 
 
-def depth_and_segmentation(geometry, geom_xpos, geom_xmat, cam_pose, cam_cfg: Camera, chunk_pixels: int = 32768):
+def depth_and_segmentation(geometry, geom_xpos, geom_xmat, cam_pose, cam_cfg: Camera, chunk_pixels: int = 32768,
+                           geom_size=None):
     """Render B worlds without colour: what the heightmaps need.
 
     Args: as `render_full`, without the colours.
@@ -394,12 +416,16 @@ def depth_and_segmentation(geometry, geom_xpos, geom_xmat, cam_pose, cam_cfg: Ca
       the depth image with `normals_from_depth` or `cos_incidence_at`).
     """
     if getattr(geometry, "backend", "jax") == "warp":
-        depth, seg = geometry.depth_and_segmentation(geom_xpos, geom_xmat, cam_pose, cam_cfg)
+        depth, seg = geometry.depth_and_segmentation(geom_xpos, geom_xmat, cam_pose, cam_cfg, geom_size)
         return depth, jnp.where(seg >= 0, seg, -1).astype(jnp.int32), None
     geom_xpos = jnp.asarray(geom_xpos, jnp.float32)
     geom_xmat = jnp.asarray(geom_xmat, jnp.float32).reshape(geom_xpos.shape[:-1] + (3, 3))
-    fn = lambda p, m, pose: _cast_one(geometry, p, m, pose, cam_cfg, chunk_pixels)  # noqa: E731
-    return jax.vmap(fn)(geom_xpos, geom_xmat, jnp.asarray(cam_pose, jnp.float32))
+    pose = jnp.asarray(cam_pose, jnp.float32)
+    if geom_size is None:
+        fn = lambda p, m, c: _cast_one(geometry, p, m, c, cam_cfg, chunk_pixels)  # noqa: E731
+        return jax.vmap(fn)(geom_xpos, geom_xmat, pose)
+    fn = lambda p, m, c, sz: _cast_one(geometry, p, m, c, cam_cfg, chunk_pixels, sz)  # noqa: E731
+    return jax.vmap(fn)(geom_xpos, geom_xmat, pose, jnp.asarray(geom_size, jnp.float32))
 
 
 def shade(geom_id, cos_incidence, geom_rgb):
@@ -418,7 +444,8 @@ def shade(geom_id, cos_incidence, geom_rgb):
     return jnp.where((geom_id >= 0)[..., None], jnp.clip(jnp.round(color), 0, 255), 0).astype(jnp.uint8)
 
 
-def render_full(geometry, geom_xpos, geom_xmat, geom_rgb, cam_pose, cam_cfg: Camera, chunk_pixels: int = 32768):
+def render_full(geometry, geom_xpos, geom_xmat, geom_rgb, cam_pose, cam_cfg: Camera, chunk_pixels: int = 32768,
+                geom_size=None):
     """Render B worlds, returning depth, colour, segmentation and incidence (`RenderOutput`).
 
     Args:
@@ -429,8 +456,11 @@ def render_full(geometry, geom_xpos, geom_xmat, geom_rgb, cam_pose, cam_cfg: Cam
       cam_pose: (B, 4, 4) camera-to-world poses (OpenCV camera frame).
       cam_cfg: image size and intrinsics (static).
       chunk_pixels: rays traced together per world ("jax" backend); lower it to save memory.
+      geom_size: optional (B, ngeom, 3) per-world MuJoCo geom sizes (objects whose size is drawn
+        per reset, ``SimState.geom_size``); None: the compiled model's sizes.
     """
-    depth, gid, cos = depth_and_segmentation(geometry, geom_xpos, geom_xmat, cam_pose, cam_cfg, chunk_pixels)
+    depth, gid, cos = depth_and_segmentation(geometry, geom_xpos, geom_xmat, cam_pose, cam_cfg, chunk_pixels,
+                                             geom_size)
     if cos is None:
         cos = normals_from_depth(depth, cam_cfg)
     b, h, w = depth.shape
@@ -438,9 +468,10 @@ def render_full(geometry, geom_xpos, geom_xmat, geom_rgb, cam_pose, cam_cfg: Cam
     return RenderOutput(depth.astype(jnp.float32), rgb, gid, cos)
 
 
-def render(geometry, geom_xpos, geom_xmat, geom_rgb, cam_pose, cam_cfg: Camera, chunk_pixels: int = 32768):
+def render(geometry, geom_xpos, geom_xmat, geom_rgb, cam_pose, cam_cfg: Camera, chunk_pixels: int = 32768,
+           geom_size=None):
     """Render B worlds -> (depth (B, h, w) float32, rgb (B, h, w, 3) uint8).  See `render_full`."""
-    out = render_full(geometry, geom_xpos, geom_xmat, geom_rgb, cam_pose, cam_cfg, chunk_pixels)
+    out = render_full(geometry, geom_xpos, geom_xmat, geom_rgb, cam_pose, cam_cfg, chunk_pixels, geom_size)
     return out.depth, out.rgb
 
 
@@ -453,28 +484,59 @@ def model_colors(mj_model: mujoco.MjModel, n_worlds: int = 1) -> np.ndarray:
 # ----------------------------------------------------------------------------- sensor noise
 
 
-def add_depth_noise(key, depth, cos_incidence, noise_cfg: DepthNoise):
-    """Simulated RGB-D sensor noise on depth images (pure; identity when not enabled).
+def depth_edges(depth, jump: float, width: int):
+    """(..., h, w) bool: pixels within ``width`` pixels of a depth discontinuity > ``jump`` m.
+
+    A discontinuity is a pair of 4-neighbours whose depths differ by more than ``jump`` (a
+    missing pixel, depth 0, next to a valid one counts too); both sides are marked, then the
+    mask is dilated by ``width - 1`` pixels (``width = 0``: no edges).
+    """
+    if width <= 0:
+        return jnp.zeros(depth.shape, bool)
+    dx = jnp.abs(jnp.diff(depth, axis=-1)) > jump  # (..., h, w - 1)
+    dy = jnp.abs(jnp.diff(depth, axis=-2)) > jump  # (..., h - 1, w)
+    pad_x = [(0, 0)] * (depth.ndim - 1)
+    pad_y = [(0, 0)] * (depth.ndim - 2)
+    edge = (jnp.pad(dx, pad_x + [(1, 0)]) | jnp.pad(dx, pad_x + [(0, 1)])
+            | jnp.pad(dy, pad_y + [(1, 0), (0, 0)]) | jnp.pad(dy, pad_y + [(0, 1), (0, 0)]))
+    if width > 1:
+        k = 2 * (width - 1) + 1
+        lead = depth.ndim - 2
+        edge = jax.lax.reduce_window(edge, False, jax.lax.bitwise_or, (1,) * lead + (k, k),
+                                     (1,) * depth.ndim, "SAME")
+    return edge
+
+
+def add_depth_noise(key, depth, cos_incidence, noise_cfg: DepthNoise, fx: float = 618.62):
+    """A structured-light / active-stereo sensor's depth from exact depth (pure; identity
+    when ``noise_cfg.enabled`` is False).  The model and its parameters: `config.DepthNoise`.
 
     Args:
       key: PRNG key.
-      depth: (..., h, w) z-depth, 0 = missing (stays missing).
+      depth: (..., h, w) exact z-depth, 0 = nothing hit (stays missing).
       cos_incidence: (..., h, w) |cos| of the angle between pixel ray and surface normal
-        (`RenderOutput.cos_incidence`); pass ones to skip the grazing-angle dropout.
-      noise_cfg: sigma(z) = sigma_base + sigma_quadratic * (z - 0.4)^2 Gaussian noise; pixels
-        seen at incidence above `grazing_dropout_deg` and a random `dropout_prob` fraction
-        go missing (0).
+        (`RenderOutput.cos_incidence`); pass ones to skip the steep-face dropout.
+      noise_cfg: the sensor model.
+      fx: focal length in pixels (disparity quantisation).
     Returns:
-      (..., h, w) float32 noisy depth.
+      (..., h, w) float32 sensor depth, 0 where the sensor returns nothing.
     """
     if not noise_cfg.enabled:
         return depth
-    k_noise, k_drop = jax.random.split(key)
+    k_noise, k_edge, k_drop = jax.random.split(key, 3)
+    depth = jnp.asarray(depth, jnp.float32)
+    steep = cos_incidence < np.cos(np.deg2rad(noise_cfg.grazing_dropout_deg))
+    edge = depth_edges(depth, noise_cfg.edge_jump, noise_cfg.edge_width)
+    edge_lost = edge & (jax.random.uniform(k_edge, depth.shape) < noise_cfg.edge_dropout)
+    dropped = jax.random.uniform(k_drop, depth.shape) < noise_cfg.dropout_prob
     sigma = noise_cfg.sigma_base + noise_cfg.sigma_quadratic * (depth - 0.4) ** 2
     noisy = depth + sigma * jax.random.normal(k_noise, depth.shape, jnp.float32)
-    grazing = cos_incidence < np.cos(np.deg2rad(noise_cfg.grazing_dropout_deg))
-    dropped = jax.random.uniform(k_drop, depth.shape) < noise_cfg.dropout_prob
-    keep = (depth > 0) & ~grazing & ~dropped & (noisy > 0)
+    if noise_cfg.disparity_step > 0:
+        fb = fx * noise_cfg.baseline  # disparity (px) = fb / z
+        disparity = fb / jnp.maximum(noisy, 1e-6)
+        q = jnp.round(disparity / noise_cfg.disparity_step) * noise_cfg.disparity_step
+        noisy = fb / jnp.maximum(q, 1e-6)
+    keep = (depth > 0) & ~steep & ~edge_lost & ~dropped & (noisy > 0)
     return jnp.where(keep, noisy, 0.0).astype(jnp.float32)
 
 
@@ -616,9 +678,10 @@ class WarpGeometry:
         d = jax.jit(jax.vmap(lambda _: mjx.make_data(m, impl="warp")))(jnp.arange(n_worlds))
         return WarpGeometry(mx, ctx, d, cid, n_worlds, int(m.ngeom))
 
-    def depth_and_segmentation(self, geom_xpos, geom_xmat, cam_pose, cam_cfg: Camera):
+    def depth_and_segmentation(self, geom_xpos, geom_xmat, cam_pose, cam_cfg: Camera, geom_size=None):
         """The Warp renderer's own part of `render`: (depth (B, h, w) float32 m, 0 = nothing
-        hit, seg (B, h, w) geom id or -1)."""
+        hit, seg (B, h, w) geom id or -1).  geom_size: optional (B, ngeom, 3) per-world sizes,
+        passed to MuJoCo Warp as a batched model field (its BVH and ray tests read it)."""
         from mujoco import mjx
 
         b = geom_xpos.shape[0]
@@ -629,7 +692,11 @@ class WarpGeometry:
         # render's FFI call and keeps the original too, because the call has side effects:
         # every group was rendered twice (an H100 trace showed two 57 ms render kernels per
         # group).  Materialising the inputs behind a barrier leaves nothing to fuse.
-        geom_xpos, geom_xmat, cam_pose = jax.lax.optimization_barrier((geom_xpos, geom_xmat, cam_pose))
+        if geom_size is None:
+            geom_xpos, geom_xmat, cam_pose = jax.lax.optimization_barrier((geom_xpos, geom_xmat, cam_pose))
+        else:
+            geom_xpos, geom_xmat, cam_pose, geom_size = jax.lax.optimization_barrier(
+                (geom_xpos, geom_xmat, cam_pose, jnp.asarray(geom_size, jnp.float32)))
         # MuJoCo cameras look along -z with y up: R_mj = R_cv @ diag(1, -1, -1).
         rot_mj = cam_pose[:, :3, :3] * jnp.array([1.0, -1.0, -1.0])
         d = self.template.replace(
@@ -640,12 +707,17 @@ class WarpGeometry:
         )
         ctx = self.context.pytree()
 
-        def one(dd):
-            dd = mjx.refit_bvh(self.mjx_model, dd, ctx)
-            _, depth, seg, dd = mjx.render_with_segmentation(self.mjx_model, dd, ctx)
+        def one(m, dd):
+            dd = mjx.refit_bvh(m, dd, ctx)
+            _, depth, seg, dd = mjx.render_with_segmentation(m, dd, ctx)
             return depth, seg
 
-        depth_raw, seg_raw = jax.vmap(one)(d)
+        if geom_size is None:
+            depth_raw, seg_raw = jax.vmap(one, in_axes=(None, 0))(self.mjx_model, d)
+        else:
+            m = self.mjx_model.replace(geom_size=geom_size)
+            axes = jax.tree.map(lambda _: None, self.mjx_model).replace(geom_size=0)
+            depth_raw, seg_raw = jax.vmap(one, in_axes=(axes, 0))(m, d)
         # Camera slot 0 of the context is our only active camera.
         # get_depth returns clip(raw / scale, 0, 1): scale by `far` and undo it.
         depth = mjx.get_depth(ctx, 0, depth_raw, cam_cfg.far)[..., 0] * cam_cfg.far

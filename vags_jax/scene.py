@@ -47,7 +47,7 @@ from typing import Optional
 import mujoco
 import numpy as np
 
-from vags_jax.config import Config
+from vags_jax.config import OBJECT_SETS as C_OBJECT_SETS, Config, object_pool  # noqa: F401
 
 SCENES_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "scenes")
 BASE_XML = os.path.join(SCENES_DIR, "base.xml")
@@ -82,6 +82,9 @@ GRIPPER_PARK_OFFSET = (-2.0, 0.0, 0.5)  # TCP relative to (cx, cy, table_z)
 # Collision bits (see scenes/base.xml).
 OBJECT_CONTYPE, OBJECT_CONAFFINITY = 1, 3
 
+# Rolling friction (m) of capsules and spheres: a capsule rolling at 0.5 m/s stops within ~10 cm.
+ROLLING_FRICTION = 0.002
+
 GRIPPER_JOINTS = ("gx", "gy", "gz", "gyaw", "finger_l", "finger_r")
 GRIPPER_ACTUATORS = ("act_x", "act_y", "act_z", "act_yaw", "act_fingers")
 FINGER_CLOSED_TARGET = -0.01  # finger servo target when closing (beyond touching: keeps squeezing)
@@ -89,16 +92,21 @@ FINGER_CLOSED_TARGET = -0.01  # finger servo target when closing (beyond touchin
 
 @dataclass(frozen=True)
 class Shape:
-    """One block shape.
+    """One object shape (a fixed block) or shape family (size drawn at every reset).
 
-    kind: "box" or "mesh".  extents: full bounding box (dx, dy, dz) in metres, in the body frame.
-    vertices: (V, 3) convex-hull vertices in the body frame (bounding-box centre at 0), meshes only.
+    kind: "box", "capsule", "sphere" or "mesh".  extents: full bounding box (dx, dy, dz) in
+    metres, in the body frame; for a sized family, that of the nominal size the model is
+    compiled with (the middle of its ranges).  vertices: (V, 3) convex-hull vertices in the
+    body frame (bounding-box centre at 0), meshes only.  sized: the family's size is drawn per
+    object and per world at every reset from the ``Scene`` config's ranges (``size_ranges``);
+    fixed shapes keep ``extents``.
     """
 
     name: str
     kind: str
     extents: tuple[float, float, float]
     vertices: Optional[np.ndarray] = None
+    sized: bool = False
 
     @property
     def radius(self) -> float:
@@ -168,7 +176,99 @@ SHAPES: dict[str, Shape] = {
     "cylinder": _mesh_shape("cylinder", _round_prism(0.045, 0.05)),
     "prism": _mesh_shape("prism", _triangular_prism_vertices()),
     "half_cylinder": _mesh_shape("half_cylinder", _half_cylinder_vertices()),
+    # Families whose size is drawn per object and per world at every reset (``size_ranges``).
+    # Their extents here are the nominal ones of the compiled model (``nominal_size``).
+    "box": Shape("box", "box", (0.05, 0.05, 0.05), sized=True),
+    "capsule": Shape("capsule", "capsule", (0.045, 0.045, 0.085), sized=True),
+    "sphere": Shape("sphere", "sphere", (0.05, 0.05, 0.05), sized=True),
 }
+
+# Object sets (names, documented in ``vags_jax.config.OBJECT_SETS``) and pools drawn from them.
+OBJECT_SETS = C_OBJECT_SETS
+
+# Kind codes per pool body (SceneModel.object_kind).
+KIND_FIXED, KIND_BOX, KIND_CAPSULE, KIND_SPHERE = 0, 1, 2, 3
+
+
+def object_set_of(shapes) -> Optional[str]:
+    """Name of the object set that holds every shape of ``shapes``, or None (a custom mix)."""
+    for name, members in OBJECT_SETS.items():
+        if set(shapes) <= set(members):
+            return name
+    return None
+
+
+def size_ranges(shape: Shape, scene_cfg) -> tuple[np.ndarray, np.ndarray]:
+    """(lo (3,), hi (3,)) of MuJoCo ``geom_size`` for one body of ``shape``.
+
+    box: half sides, each drawn independently from ``scene_cfg.box_side`` / 2 (so proportions
+    and volume vary); capsule: (radius, half length of the cylinder part, 0) from
+    ``capsule_radius`` and ``capsule_length`` / 2; sphere: (radius, 0, 0) from
+    ``sphere_radius``.  Fixed shapes: lo = hi = their compiled size (``nominal_size``).
+    """
+    if not shape.sized:
+        v = nominal_size(shape, scene_cfg)
+        return v, v
+    if shape.kind == "box":
+        lo, hi = scene_cfg.box_side
+        return np.full(3, lo / 2), np.full(3, hi / 2)
+    if shape.kind == "capsule":
+        (r0, r1), (l0, l1) = scene_cfg.capsule_radius, scene_cfg.capsule_length
+        return np.array([r0, l0 / 2, 0.0]), np.array([r1, l1 / 2, 0.0])
+    if shape.kind == "sphere":
+        r0, r1 = scene_cfg.sphere_radius
+        return np.array([r0, 0.0, 0.0]), np.array([r1, 0.0, 0.0])
+    raise ValueError(f"shape {shape.name!r} of kind {shape.kind!r} cannot be sized")
+
+
+def nominal_size(shape: Shape, scene_cfg) -> np.ndarray:
+    """(3,) MuJoCo ``geom_size`` the model is compiled with: fixed boxes their half extents,
+    sized families the middle of their ranges; meshes (3,) zeros (MuJoCo sizes them)."""
+    if shape.sized:
+        lo, hi = size_ranges(shape, scene_cfg)
+        return 0.5 * (lo + hi)
+    if shape.kind == "box":
+        return np.asarray(shape.extents, np.float64) / 2
+    return np.zeros(3)
+
+
+def sized_body_physics(kind, size, density: float):
+    """Mass properties and bounds of single-geom bodies of drawn sizes (pure jnp, any batch).
+
+    kind: (..., P) int32 kind codes (``KIND_*``); size: (..., P, 3) MuJoCo geom_size;
+    density: kg/m^3.  Returns a dict of (..., P) ``mass``, (..., P, 3) ``inertia`` (principal,
+    geom frame = body inertial frame), (..., P) ``rbound`` (MuJoCo's bounding-sphere radius),
+    (..., P, 3) ``aabb_half`` (half extents of the geom-frame bounding box), (..., P, 2)
+    ``invweight`` (MuJoCo's body_invweight0 of a free body: 1 / mass and the mean of
+    1 / inertia) -- MuJoCo's own formulas for boxes, capsules and spheres (tests compare them
+    with compiled models).  Rows of KIND_FIXED bodies are meaningless (callers keep the
+    compiled values there).
+    """
+    import jax.numpy as jnp
+
+    s0, s1, s2 = size[..., 0], size[..., 1], size[..., 2]
+    box, cap = kind == KIND_BOX, kind == KIND_CAPSULE
+    # Box: half sides (a, b, c).
+    box_m = density * 8 * s0 * s1 * s2
+    box_i = box_m[..., None] / 3 * jnp.stack([s1**2 + s2**2, s0**2 + s2**2, s0**2 + s1**2], -1)
+    # Capsule: radius r, cylinder half length h, along z.  Sphere: radius r.
+    r, height = s0, 2 * s1
+    cyl_v, sph_v = np.pi * r**2 * height, 4.0 / 3.0 * np.pi * r**3
+    cap_m = density * (cyl_v + sph_v)
+    m_sph, m_cyl = density * sph_v, density * cyl_v
+    i_sph = 2 * m_sph * r**2 / 5
+    i_xy = m_cyl * (3 * r**2 + height**2) / 12 + i_sph + m_sph * height * (3 * r + 2 * height) / 8
+    cap_i = jnp.stack([i_xy, i_xy, m_cyl * r**2 / 2 + i_sph], -1)
+    ball_m = density * sph_v
+    ball_i = jnp.stack([i_sph, i_sph, i_sph], -1) * (ball_m / jnp.maximum(m_sph, 1e-30))[..., None]
+    mass = jnp.where(box, box_m, jnp.where(cap, cap_m, ball_m))
+    inertia = jnp.where(box[..., None], box_i, jnp.where(cap[..., None], cap_i, ball_i))
+    rbound = jnp.where(box, jnp.sqrt(s0**2 + s1**2 + s2**2), jnp.where(cap, s0 + s1, s0))
+    aabb_half = jnp.where(box[..., None], size,
+                          jnp.stack([s0, s0, jnp.where(cap, s0 + s1, s0)], -1))
+    safe_m = jnp.maximum(mass, 1e-12)
+    invweight = jnp.stack([1.0 / safe_m, jnp.mean(1.0 / jnp.maximum(inertia, 1e-15), -1)], -1)
+    return dict(mass=mass, inertia=inertia, rbound=rbound, aabb_half=aabb_half, invweight=invweight)
 
 
 @dataclass
@@ -186,8 +286,12 @@ class SceneModel:
     object_qpos_adr: np.ndarray  # (P,) int32, start of the 7 free-joint qpos (pos, quat wxyz)
     object_dof_adr: np.ndarray  # (P,) int32, start of the 6 free-joint dofs
     object_shape_index: np.ndarray  # (P,) int32 index into cfg.scene.shapes
-    object_radius: np.ndarray  # (P,) float32, half bounding-box diagonal
-    object_half_height: np.ndarray  # (P,) float32, half z extent when resting upright
+    object_radius: np.ndarray  # (P,) float32, half bounding-box diagonal (nominal size)
+    object_half_height: np.ndarray  # (P,) float32, half z extent when resting upright (nominal)
+    object_kind: np.ndarray  # (P,) int32 KIND_* code (KIND_FIXED: size never changes)
+    object_size: np.ndarray  # (P, 3) float32 compiled (nominal) MuJoCo geom_size
+    object_size_lo: np.ndarray  # (P, 3) float32 drawn geom_size range (lo = hi for fixed shapes)
+    object_size_hi: np.ndarray  # (P, 3) float32
     park_qpos: np.ndarray  # (P, 7) float32
     park_qpos_full: np.ndarray  # (nq,) float32: everything parked (also keyframe "park")
     park_ctrl: np.ndarray  # (nu,) float32: servo targets holding the parked gripper
@@ -208,6 +312,11 @@ class SceneModel:
         return int(self.object_body_ids.shape[0])
 
     @property
+    def has_sized_objects(self) -> bool:
+        """True when some pool body's size is drawn per reset (per-world model fields)."""
+        return bool((self.object_kind != KIND_FIXED).any())
+
+    @property
     def max_objects(self) -> int:
         return self.cfg.scene.max_objects
 
@@ -224,6 +333,11 @@ def _park_position(cfg: Config, i: int) -> tuple[float, float, float]:
         cy + PARK_OFFSET + PARK_SPACING * (i // 10),
         cfg.workspace.table_z + PARK_HEIGHT,
     )
+
+
+def rows_per_contact(cfg: Config) -> int:
+    """Constraint rows of one contact at most: 6 when a pool body rolls (condim 6), else 3."""
+    return 6 if any(SHAPES[n].kind in ("capsule", "sphere") for n in cfg.scene.shapes if n in SHAPES) else 3
 
 
 def contacts_per_world(cfg: Config) -> int:
@@ -306,7 +420,7 @@ def build_spec(cfg: Config) -> mujoco.MjSpec:
     copies = cfg.scene.copies_per_shape
     for s_idx, name in enumerate(cfg.scene.shapes):
         shape = SHAPES[name]
-        if shape.kind == "mesh":
+        if shape.kind == "mesh" and spec.mesh(f"mesh_{name}") is None:  # a pool may repeat a shape
             mesh = spec.add_mesh()
             mesh.name = f"mesh_{name}"
             mesh.uservert = shape.vertices.reshape(-1).tolist()
@@ -318,17 +432,23 @@ def build_spec(cfg: Config) -> mujoco.MjSpec:
             body.add_freejoint().name = f"obj_{i}_free"
             g = body.add_geom()
             g.name = f"obj_{i}_geom"
-            if shape.kind == "box":
-                g.type = mujoco.mjtGeom.mjGEOM_BOX
-                g.size = [e / 2 for e in shape.extents]
+            if shape.kind in ("box", "capsule", "sphere"):
+                g.type = {"box": mujoco.mjtGeom.mjGEOM_BOX, "capsule": mujoco.mjtGeom.mjGEOM_CAPSULE,
+                          "sphere": mujoco.mjtGeom.mjGEOM_SPHERE}[shape.kind]
+                g.size = nominal_size(shape, cfg.scene).tolist()
             else:
                 g.type = mujoco.mjtGeom.mjGEOM_MESH
                 g.meshname = f"mesh_{name}"
             g.contype, g.conaffinity = OBJECT_CONTYPE, OBJECT_CONAFFINITY
             g.friction = [cfg.scene.friction, 0.005, 0.0001]
+            if shape.kind in ("capsule", "sphere"):
+                # Round bodies get rolling friction (condim 6), or a capsule dropped on a pile
+                # rolls off the workspace (with condim 3, one in ~5 tiny piles lost an object).
+                g.condim = 6
+                g.friction = [cfg.scene.friction, 0.005, ROLLING_FRICTION]
             g.density = cfg.scene.object_density
             g.group = 0
-            rgb = PALETTE[i % len(PALETTE)] / 255.0
+            rgb = PALETTE[i % len(PALETTE)] / 255.0  # (per-world colours are drawn at reset)
             g.rgba = [float(rgb[0]), float(rgb[1]), float(rgb[2]), 1.0]
     return spec
 
@@ -357,6 +477,13 @@ def build_scene(cfg: Config) -> SceneModel:
     names = tuple(cfg.scene.shapes[k] for k in shape_index)
     radius = np.array([SHAPES[n].radius for n in names], np.float32)
     half_h = np.array([SHAPES[n].extents[2] / 2 for n in names], np.float32)
+    kinds = {"box": KIND_BOX, "capsule": KIND_CAPSULE, "sphere": KIND_SPHERE}
+    kind = np.array([kinds[SHAPES[n].kind] if SHAPES[n].sized else KIND_FIXED for n in names], np.int32)
+    size0 = np.asarray(m.geom_size[geom_ids], np.float32)
+    lo, hi = size0.copy(), size0.copy()
+    for i, n in enumerate(names):
+        if SHAPES[n].sized:
+            lo[i], hi[i] = size_ranges(SHAPES[n], cfg.scene)
     park = np.array([list(_park_position(cfg, i)) + [1.0, 0.0, 0.0, 0.0] for i in range(P)],
                     np.float32)
 
@@ -406,6 +533,10 @@ def build_scene(cfg: Config) -> SceneModel:
         object_shape_index=shape_index,
         object_radius=radius,
         object_half_height=half_h,
+        object_kind=kind,
+        object_size=size0,
+        object_size_lo=lo,
+        object_size_hi=hi,
         park_qpos=park,
         park_qpos_full=full.astype(np.float32),
         park_ctrl=ctrl.astype(np.float32),

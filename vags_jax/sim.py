@@ -57,7 +57,8 @@ Buffers and failures (never silently accepted):
     are sized from the scene: only active objects and the gripper can touch anything (parked
     bodies are pinned far apart), so per world ``contacts_per_world`` = ``20 * N + 56``
     contacts unless set (each object on the table 4, object-object ~16 per object, 2 pads x
-    up to 3 objects x 8 + pads on table) and ``3 * that + 16`` rows (elliptic condim-3
+    up to 3 objects x 8 + pads on table) and ``3 * that + 16`` rows (6 * that + 16 when capsules or
+    spheres, whose contacts have rolling friction (condim 6), are in the pool) (elliptic condim-3
     contacts use 3 rows, plus the finger equality and limits).
     After every step the simulator compares the contact count / rows with the buffers; a full
     buffer sets ``state.overflow`` for the world (for contacts: every world, the count is
@@ -90,6 +91,7 @@ Buffers and failures (never silently accepted):
 from __future__ import annotations
 
 import warnings
+from typing import Optional
 
 import jax
 import jax.numpy as jnp
@@ -99,7 +101,8 @@ import mujoco
 from mujoco import mjx
 
 from vags_jax.config import Config
-from vags_jax.scene import FINGER_CLOSED_TARGET, SceneModel, contacts_per_world
+from vags_jax.scene import (FINGER_CLOSED_TARGET, KIND_FIXED, SceneModel, contacts_per_world, rows_per_contact,
+                            sized_body_physics)
 
 # mujoco_warp OverflowType bits that mean a buffer was too small (data were dropped):
 # NEFC, NJMAX_NNZ, BROADPHASE, NARROWPHASE, CCD, EPA_HORIZON.  Solver / line-search iteration
@@ -109,6 +112,11 @@ WARP_BUFFER_OVERFLOW_BITS = (1 << 0) | (1 << 1) | (1 << 2) | (1 << 3) | (1 << 4)
 # Thresholds for housekeeping.
 BELOW_TABLE = 0.02  # m; an object whose centre is this far below the table top fell through
 SPAWN_GAP = 0.005  # m between bounding spheres of stacked spawn poses
+# "pile" placement: each body is dropped from this far above what lies under it, tilted up to
+# PILE_TILT; the drops are spread over the first PILE_DROP_SHARE of the reset's settle time.
+PILE_GAP = 0.02  # m
+PILE_DROP_SHARE = 0.5
+PILE_TILT = 0.35  # rad (20 deg)
 # Guarded descent: an object counts as "within reach" of the descending gripper when its
 # bounding sphere comes closer than finger_stroke / 2 + REACH_MARGIN to the grasp axis (the open
 # pads reach finger_stroke / 2 + 8 mm along the closing axis and 12 mm across it; the palm is
@@ -130,6 +138,8 @@ class SimState:
     n_objects: (B,) int32 objects drawn at the last reset.
     error: (B,) bool, physics failure since the last reset (NaN / object through the table).
     overflow: (B,) bool, impl "warp": a contact / constraint buffer was full on some step.
+    obj_size: (B, P, 3) float32 MuJoCo geom_size of every pool body in each world (drawn at
+      reset for sized families; the compiled size for fixed shapes).
     """
 
     data: mjx.Data
@@ -138,6 +148,7 @@ class SimState:
     n_objects: jax.Array
     error: jax.Array
     overflow: jax.Array
+    obj_size: jax.Array
 
     @property
     def n_worlds(self) -> int:
@@ -158,6 +169,24 @@ class GraspResult:
     approach: jax.Array
     descend: jax.Array
     lift: jax.Array
+
+
+@struct.dataclass
+class Drops:
+    """Objects of new "pile" scenes still to be dropped during the settle that follows, B worlds.
+
+    release: (B, P) int32 physics step (counted from the start of the loop) at which each body
+      is dropped, -1 = none (not drawn, already placed, or a world not being reset).
+    xy: (B, P, 2) drop position; quat: (B, P, 4) wxyz drop orientation.
+    half_z: (B, P) half height of the body's world bounding box in that orientation; radius:
+      (B, P) its bounding-sphere radius (which lower bodies it may land on).
+    """
+
+    release: jax.Array
+    xy: jax.Array
+    quat: jax.Array
+    half_z: jax.Array
+    radius: jax.Array
 
 
 def check_overflow(state: SimState, warn: bool = False) -> None:
@@ -204,6 +233,24 @@ def _smooth_ramp(n: int, frac: float) -> np.ndarray:
     return 0.5 - 0.5 * np.cos(np.pi * u)
 
 
+def _quat_mul(a, b):
+    """Hamilton product of (..., 4) wxyz quaternions."""
+    aw, ax, ay, az = jnp.moveaxis(a, -1, 0)
+    bw, bx, by, bz = jnp.moveaxis(b, -1, 0)
+    return jnp.stack([aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
+                      aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw], -1)
+
+
+def _quat_to_mat(q):
+    """(..., 4) unit wxyz quaternions -> (..., 3, 3) rotation matrices."""
+    w, x, y, z = jnp.moveaxis(q, -1, 0)
+    return jnp.stack([
+        jnp.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], -1),
+        jnp.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], -1),
+        jnp.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], -1),
+    ], -2)
+
+
 def _is_traced(x) -> bool:
     return isinstance(x, jax.core.Tracer)
 
@@ -241,12 +288,17 @@ class Simulator:
         ids = scene.object_geom_ids
         self._obj_aabb = np.asarray(m.geom_aabb[ids], np.float32)  # (P, 6) centre, half size (geom frame)
         self._obj_rbound = np.asarray(m.geom_rbound[ids], np.float32)  # (P,)
+        self._sized = scene.has_sized_objects
+        self._fixed = np.asarray(scene.object_kind == KIND_FIXED)  # (P,)
         self._ctrl_park = scene.park_ctrl  # (nu,)
 
         dt = cfg.sim.timestep
         g = cfg.grasp
         steps = lambda t: max(1, int(round(t / dt)))  # noqa: E731
         self.n_settle_reset = int(round(cfg.scene.settle_time / dt))
+        # "pile": the j-th drawn body drops at step j * this (the last at PILE_DROP_SHARE of the
+        # settle), so each lands on what is already there.
+        self.pile_release_interval = max(1, int(PILE_DROP_SHARE * self.n_settle_reset) // max(1, cfg.scene.max_objects - 1))
         n_open, n_desc, n_close, n_lift = (steps(t) for t in (g.t_settle, g.t_descend, g.t_close, g.t_lift))
         self.n_post = steps(g.t_post)
         zeros, ones = np.zeros, np.ones
@@ -279,7 +331,7 @@ class Simulator:
     def buffer_sizes(self, n_worlds: int) -> tuple[int, int]:
         """(naconmax over all worlds, njmax per world) used for impl "warp"."""
         nacon = self.cfg.sim.naconmax or n_worlds * self.contacts_per_world
-        njmax = self.cfg.sim.njmax or 3 * self.contacts_per_world + 16
+        njmax = self.cfg.sim.njmax or rows_per_contact(self.cfg) * self.contacts_per_world + 16
         return int(nacon), int(njmax)
 
     def _template(self, n_worlds: int) -> mjx.Data:
@@ -314,6 +366,73 @@ class Simulator:
         # contact, CCD and EPA buffers that were too small on this step.
         flags = jnp.asarray(impl.overflow).reshape(B, -1).max(axis=1)
         return full | ((flags & WARP_BUFFER_OVERFLOW_BITS) != 0)
+
+    # ------------------------------------------------------------------ per-world sizes
+
+    def object_bounds(self, obj_size):
+        """Per-world bounds of every pool body: obj_size (B, P, 3) -> (aabb (B, P, 6) geom-frame
+        centre + half size, rbound (B, P)).  Fixed shapes keep their compiled values."""
+        aabb = jnp.broadcast_to(jnp.asarray(self._obj_aabb), obj_size.shape[:-1] + (6,))
+        rbound = jnp.broadcast_to(jnp.asarray(self._obj_rbound), obj_size.shape[:-1])
+        if not self._sized:
+            return aabb, rbound
+        phys = sized_body_physics(jnp.asarray(self.scene.object_kind), obj_size, self.cfg.scene.object_density)
+        fixed = jnp.asarray(self._fixed)
+        aabb = jnp.where(fixed[..., None], aabb, jnp.concatenate([jnp.zeros_like(obj_size), phys["aabb_half"]], -1))
+        return aabb, jnp.where(fixed, rbound, phys["rbound"])
+
+    def world_model(self, obj_size):
+        """The model each world steps with -> (mjx.Model, vmap in_axes).
+
+        With sized families, the object geoms' ``geom_size``, their bounds and their bodies'
+        mass, inertia and inverse weights are per-world model fields (leading dim B; MJX jax
+        and MuJoCo Warp both batch these); otherwise the shared model (in_axes None).
+        """
+        if not self._sized:
+            return self.mx, None
+        mx, sc = self.mx, self.scene
+        B = obj_size.shape[0]
+        fixed = jnp.asarray(self._fixed)
+        phys = sized_body_physics(jnp.asarray(sc.object_kind), obj_size, self.cfg.scene.object_density)
+        gid, bid = sc.object_geom_ids, sc.object_body_ids
+
+        def per_world(field, rows, new):
+            base = jnp.broadcast_to(field, (B,) + field.shape)
+            keep = base[:, rows]
+            f = fixed.reshape((1, -1) + (1,) * (keep.ndim - 2))
+            return base.at[:, rows].set(jnp.where(f, keep, new.reshape(keep.shape).astype(field.dtype)))
+
+        aabb = jnp.concatenate([jnp.zeros_like(obj_size), phys["aabb_half"]], -1)  # (B, P, 6)
+        dof = sc.object_dof_adr[:, None] + np.arange(6)  # (P, 6)
+        invw = phys["invweight"]
+        dof_inv = jnp.repeat(invw, 3, axis=-1)  # (B, P, 6): 3 x translational, 3 x rotational
+        fields = dict(
+            geom_size=per_world(mx.geom_size, gid, obj_size),
+            geom_rbound=per_world(mx.geom_rbound, gid, phys["rbound"]),
+            geom_aabb=per_world(mx.geom_aabb, gid, aabb),
+            body_mass=per_world(mx.body_mass, bid, phys["mass"]),
+            body_inertia=per_world(mx.body_inertia, bid, phys["inertia"]),
+            body_invweight0=per_world(mx.body_invweight0, bid, invw),
+        )
+        dof_b = jnp.broadcast_to(mx.dof_invweight0, (B,) + mx.dof_invweight0.shape)
+        keep = dof_b[:, dof]  # (B, P, 6)
+        fields["dof_invweight0"] = dof_b.at[:, dof].set(jnp.where(fixed[None, :, None], keep, dof_inv))
+        axes = jax.tree.map(lambda _: None, mx).replace(**{k: 0 for k in fields})
+        return mx.replace(**fields), axes
+
+    def _stepper(self, obj_size):
+        """-> step(d) advancing every world one physics step with its own model."""
+        m, axes = self.world_model(obj_size)
+        batched = jax.vmap(mjx.step, in_axes=(axes, 0))
+        return lambda d: batched(m, d)
+
+    def geom_size(self, state: SimState):
+        """(B, ngeom, 3) per-world geom sizes for the renderer, or None when no size is drawn."""
+        if not self._sized:
+            return None
+        base = jnp.broadcast_to(jnp.asarray(self.scene.mj_model.geom_size, jnp.float32),
+                                (state.n_worlds,) + self.scene.mj_model.geom_size.shape)
+        return base.at[:, self.scene.object_geom_ids].set(state.obj_size)
 
     # ------------------------------------------------------------------ low-level pieces
 
@@ -369,23 +488,56 @@ class Simulator:
         pin_q, pin_v = self._pin_masks(active)
         return self._kinematics(self._pin(self._wake(d, woken), pin_q, pin_v))
 
-    def _run(self, d: mjx.Data, active, overflow, ctrl_fn, xs):
+    def _run(self, d: mjx.Data, active, overflow, ctrl_fn, xs, obj_size, drops: Optional[Drops] = None):
         """Step all worlds once per element of xs (leading dim T); ctrl_fn(x) -> (B, nu).
 
-        Parked bodies (~active) are pinned after every step.  Returns (data, overflow (B,)).
+        Parked bodies (~active) are pinned after every step; obj_size (B, P, 3) gives each
+        world's object sizes; ``drops`` (pile scenes) are dropped at their release steps.
+        Returns (data, active (B, P), overflow (B,)).
         """
         B = active.shape[0]
-        pin_q, pin_v = self._pin_masks(active)
-        step = jax.vmap(mjx.step, in_axes=(None, 0))
+        step = self._stepper(obj_size)
+        if drops is None:
+            pin_q, pin_v = self._pin_masks(active)
 
-        def body(carry, x):
-            d, ovf = carry
-            d = step(self.mx, d.replace(ctrl=ctrl_fn(x)))
-            d = self._pin(d, pin_q, pin_v)
-            return (d, ovf | self._overflow_now(d, B)), None
+            def body(carry, x):
+                d, ovf = carry
+                d = step(d.replace(ctrl=ctrl_fn(x)))
+                d = self._pin(d, pin_q, pin_v)
+                return (d, ovf | self._overflow_now(d, B)), None
 
-        (d, overflow), _ = jax.lax.scan(body, (self._pin(d, pin_q, pin_v), overflow), xs)
-        return d, overflow
+            (d, overflow), _ = jax.lax.scan(body, (self._pin(d, pin_q, pin_v), overflow), xs)
+            return d, active, overflow
+
+        def body_drops(carry, x):
+            d, active, ovf, t = carry
+            d, active = self._drop_due(d, active, t, drops, obj_size)
+            d = step(d.replace(ctrl=ctrl_fn(x)))
+            d = self._pin(d, *self._pin_masks(active))
+            return (d, active, ovf | self._overflow_now(d, B), t + 1), None
+
+        (d, active, overflow, _), _ = jax.lax.scan(body_drops, (d, active, overflow, jnp.int32(0)), xs)
+        return d, active, overflow
+
+    def _drop_due(self, d: mjx.Data, active, t, drops: Drops, obj_size):
+        """Drop the bodies whose release step is ``t``: each is placed at rest with its bottom
+        ``PILE_GAP`` above the highest top of the active bodies it may land on (bounding
+        spheres overlapping in xy), or above the table.  -> (data, active (B, P))."""
+        due = drops.release == t  # (B, P)
+        ids = self.scene.object_geom_ids
+        pos, rot = d.geom_xpos[:, ids], d.geom_xmat[:, ids]
+        rz = rot[:, :, 2, :]
+        aabb, rbound = self.object_bounds(obj_size)
+        top = pos[..., 2] + (rz * aabb[..., :3]).sum(-1) + (jnp.abs(rz) * aabb[..., 3:]).sum(-1)  # (B, P)
+        dist = jnp.linalg.norm(drops.xy[:, :, None] - pos[:, None, :, :2], axis=-1)  # (B, P new, P old)
+        under = active[:, None, :] & (dist < drops.radius[:, :, None] + rbound[:, None, :])
+        floor = jnp.where(under, top[:, None, :], self.cfg.workspace.table_z).max(axis=-1)  # (B, P)
+        z = floor + drops.half_z + PILE_GAP
+        pose = jnp.concatenate([drops.xy, z[..., None], drops.quat], axis=-1)  # (B, P, 7)
+        q = d.qpos[:, self._obj_qidx]
+        d = d.replace(qpos=d.qpos.at[:, self._obj_qidx].set(jnp.where(due[..., None], pose, q)),
+                      qvel=d.qvel.at[:, self._obj_vidx].set(jnp.where(due[..., None], 0.0, d.qvel[:, self._obj_vidx])))
+        return d, active | due
 
     def _park_ctrl(self, B: int):
         return jnp.broadcast_to(jnp.asarray(self._ctrl_park), (B, self.nu))
@@ -407,24 +559,67 @@ class Simulator:
     # ------------------------------------------------------------------ reset
 
     def _sample_world(self, key, n):
-        """One world's draw: n () int -> obj_qpos (P, 7), active (P,), rgb (P, 3) uint8."""
+        """One world's draw: n () int -> obj_qpos (P, 7), active (P,), rgb (P, 3) uint8,
+        size (P, 3) geom_size.
+
+        Sizes: each sized body's geom_size uniform in its range (``SceneModel.object_size_lo``
+        .. ``hi``: box sides independently, capsule radius and length, sphere radius).
+        Colours: a palette colour per body (distinct within the world for up to 10), each
+        channel scaled by a factor in 1 +- ``colour_jitter``.  Placement (``Scene.placement``):
+        "scatter": x, y uniform over the workspace shrunk by ``drop_margin``; "pile": uniform
+        in a disc of radius ``pile_radius`` around a centre drawn like a scatter position.
+        Either way bodies are spawned in draw order, each above every earlier one whose
+        bounding sphere overlaps it in xy (no interpenetration), so overlapping ones are
+        dropped one after another onto each other.
+        """
         cfg, sc = self.cfg, self.scene
         P, N = self.P, self.N
-        k_perm, k_xy, k_rot, k_col = jax.random.split(key, 4)
+        k_perm, k_xy, k_rot, k_col, k_size, k_jit, k_ctr = jax.random.split(key, 7)
         perm = jax.random.permutation(k_perm, P)  # perm[j] = j-th drawn body
         rank = jnp.argsort(perm)  # rank[i] = draw position of body i
         active = rank < n
+        lo_s, hi_s = jnp.asarray(sc.object_size_lo), jnp.asarray(sc.object_size_hi)
+        size = lo_s + jax.random.uniform(k_size, (P, 3)) * (hi_s - lo_s)
         xmin, xmax, ymin, ymax = cfg.workspace.bounds
         mg = cfg.scene.drop_margin
         lo = jnp.array([xmin + mg, ymin + mg])
         hi = jnp.array([xmax - mg, ymax - mg])
-        xy = jax.random.uniform(k_xy, (P, 2), minval=lo, maxval=hi)
-        quat = jax.random.normal(k_rot, (P, 4))
-        quat = quat / jnp.linalg.norm(quat, axis=1, keepdims=True)
-
-        # Spawn heights in draw order: above every earlier body whose xy footprint overlaps.
-        radius = jnp.asarray(sc.object_radius)
+        if cfg.scene.placement == "pile":
+            centre = jax.random.uniform(k_ctr, (2,), minval=lo, maxval=hi)
+            k_r, k_t = jax.random.split(k_xy)
+            r = cfg.scene.pile_radius * jnp.sqrt(jax.random.uniform(k_r, (P,)))
+            t = 2 * jnp.pi * jax.random.uniform(k_t, (P,))
+            xy = centre + jnp.stack([r * jnp.cos(t), r * jnp.sin(t)], axis=1)
+        else:
+            xy = jax.random.uniform(k_xy, (P, 2), minval=lo, maxval=hi)
         slot = perm[:N]
+        park = jnp.asarray(sc.park_qpos)
+        if cfg.scene.placement == "pile":
+            quat, half_z = self._pile_orientations(k_rot, size)
+            _, radius = self.object_bounds(size[None])
+            release = jnp.where(active, rank * self.pile_release_interval, -1).astype(jnp.int32)
+            drops = Drops(release=release, xy=xy, quat=quat, half_z=half_z, radius=radius[0])
+            obj_qpos = park  # every body waits parked for its drop
+        else:
+            quat = jax.random.normal(k_rot, (P, 4))
+            quat = quat / jnp.linalg.norm(quat, axis=1, keepdims=True)
+            z = self._scatter_spawn(size, xy, slot)
+            drops = Drops(release=jnp.full((P,), -1, jnp.int32), xy=xy, quat=quat,
+                          half_z=jnp.zeros(P), radius=jnp.zeros(P))
+            obj_qpos = jnp.where(active[:, None], jnp.concatenate([xy, z[:, None], quat], axis=1), park)
+        colours = jax.random.permutation(k_col, sc.palette.shape[0])
+        base_rgb = jnp.asarray(sc.palette, jnp.float32)[colours[rank % sc.palette.shape[0]]]
+        j = cfg.scene.colour_jitter
+        scale = jax.random.uniform(k_jit, (P, 3), minval=1.0 - j, maxval=1.0 + j)
+        rgb = jnp.clip(jnp.round(base_rgb * scale), 0, 255).astype(jnp.uint8)
+        return obj_qpos, active, rgb, size.astype(jnp.float32), drops
+
+    def _scatter_spawn(self, size, xy, slot):
+        """Spawn heights (P,) for "scatter": centres at ``drop_height`` (or higher), each body
+        above every earlier-drawn one whose bounding sphere overlaps it in xy."""
+        cfg, sc, N = self.cfg, self.scene, self.N
+        _, radius = self.object_bounds(size[None])
+        radius = jnp.where(jnp.asarray(self._fixed), jnp.asarray(sc.object_radius), radius[0])
         sxy, sr = xy[slot], radius[slot]
         base = cfg.workspace.table_z + jnp.maximum(cfg.scene.drop_height, sr + SPAWN_GAP)
 
@@ -435,20 +630,40 @@ class Simulator:
             return z.at[j].set(jnp.maximum(base[j], above))
 
         sz = jax.lax.fori_loop(0, N, place, jnp.zeros(N))
-        z = jnp.zeros(P).at[slot].set(sz)
-        drop = jnp.concatenate([xy, z[:, None], quat], axis=1)
-        obj_qpos = jnp.where(active[:, None], drop, jnp.asarray(sc.park_qpos))
-        colours = jax.random.permutation(k_col, sc.palette.shape[0])
-        rgb = jnp.asarray(sc.palette)[colours[rank % sc.palette.shape[0]]]
-        return obj_qpos, active, rgb
+        return jnp.zeros(self.P).at[slot].set(sz)
 
-    def _start_rounds(self, state: SimState, mask, keys, n_objects) -> SimState:
+    def _pile_orientations(self, key, size):
+        """Drop orientations (P, 4) wxyz for "pile" and the half heights (P,) of the bodies'
+        world bounding boxes in them: each body lies on a random face (x, y or z axis up),
+        tilted up to ``PILE_TILT`` rad about a random horizontal axis, at a random yaw."""
+        P = self.P
+        k_face, k_tilt_axis, k_tilt, k_yaw = jax.random.split(key, 4)
+        s2 = np.sqrt(0.5)
+        faces = jnp.array([[1.0, 0, 0, 0], [s2, 0, -s2, 0], [s2, s2, 0, 0]])  # z up, x up, y up
+        q_face = faces[jax.random.randint(k_face, (P,), 0, 3)]
+        phi = 2 * jnp.pi * jax.random.uniform(k_tilt_axis, (P,))
+        tilt = PILE_TILT * jax.random.uniform(k_tilt, (P,))
+        q_tilt = jnp.stack([jnp.cos(tilt / 2), jnp.cos(phi) * jnp.sin(tilt / 2),
+                            jnp.sin(phi) * jnp.sin(tilt / 2), jnp.zeros(P)], -1)
+        yaw = 2 * jnp.pi * jax.random.uniform(k_yaw, (P,))
+        q_yaw = jnp.stack([jnp.cos(yaw / 2), jnp.zeros(P), jnp.zeros(P), jnp.sin(yaw / 2)], -1)
+        quat = _quat_mul(q_yaw, _quat_mul(q_tilt, q_face))
+        aabb, _ = self.object_bounds(size[None])
+        rz = _quat_to_mat(quat)[:, 2, :]  # (P, 3) world z of each body axis
+        half_z = (jnp.abs(rz) * aabb[0, :, 3:]).sum(-1) + (rz * aabb[0, :, :3]).sum(-1)
+        return quat, half_z
+
+    def _start_rounds(self, state: SimState, mask, keys, n_objects):
         """Worlds with mask (B,) get a new scene drawn with keys (B, 2) and n_objects (B,):
-        objects placed at their drop poses at rest, new colours, flags cleared (no physics;
-        the caller lets them settle).  The other worlds are unchanged."""
+        new sizes and colours, flags cleared, objects placed at their spawn poses at rest
+        ("scatter") or parked until their drop ("pile"; returned ``Drops``).  No physics: the
+        caller lets the scene settle, passing the ``Drops`` to its loop.  The other worlds are
+        unchanged.  -> (SimState, Drops)."""
         d = state.data
-        obj_qpos, active, rgb = jax.vmap(self._sample_world)(keys, n_objects)
+        obj_qpos, active, rgb, size, drops = jax.vmap(self._sample_world)(keys, n_objects)
         m3 = mask[:, None, None]
+        drops = drops.replace(release=jnp.where(mask[:, None], drops.release, -1))
+        placed = active & (drops.release < 0)  # scatter: every drawn body; pile: none yet
         d = d.replace(
             qpos=d.qpos.at[:, self._obj_qidx].set(jnp.where(m3, obj_qpos, d.qpos[:, self._obj_qidx])),
             qvel=d.qvel.at[:, self._obj_vidx].set(jnp.where(m3, 0.0, d.qvel[:, self._obj_vidx])),
@@ -456,21 +671,23 @@ class Simulator:
         )
         d = self._wake(d, mask)
         ids = self.scene.object_geom_ids
-        return state.replace(
+        state = state.replace(
             data=d,
-            active=jnp.where(mask[:, None], active, state.active),
+            active=jnp.where(mask[:, None], placed, state.active),
             geom_rgb=state.geom_rgb.at[:, ids].set(jnp.where(m3, rgb, state.geom_rgb[:, ids])),
             n_objects=jnp.where(mask, n_objects.astype(jnp.int32), state.n_objects),
             error=state.error & ~mask, overflow=state.overflow & ~mask,
+            obj_size=jnp.where(m3, size, state.obj_size),
         )
+        return state, drops
 
     def _reset_impl(self, keys, n_objects) -> SimState:
         B = keys.shape[0]
-        state = self._start_rounds(self._empty_impl(B), jnp.ones((B,), bool), keys, n_objects)
+        state, drops = self._start_rounds(self._empty_impl(B), jnp.ones((B,), bool), keys, n_objects)
         park_ctrl = self._park_ctrl(B)
-        d, ovf = self._run(state.data, state.active, state.overflow, lambda _: park_ctrl,
-                           jnp.zeros((self.n_settle_reset,)))
-        return self._housekeep(state.replace(data=d, overflow=ovf))
+        d, active, ovf = self._run(state.data, state.active, state.overflow, lambda _: park_ctrl,
+                                   jnp.zeros((self.n_settle_reset,)), state.obj_size, drops)
+        return self._housekeep(state.replace(data=d, active=active, overflow=ovf))
 
     def reset(self, key, n_objects) -> SimState:
         """New scenes.  key: (2,) or (B, 2) uint32 (or typed key () / (B,)); n_objects: (B,) int.
@@ -521,15 +738,16 @@ class Simulator:
         g_park = jnp.asarray(self.scene.gripper_park_qpos)
         fo = jnp.full((B,), self.finger_open)
         # Where the simulated descent starts (the free-space part above it is skipped).
-        zs = zpre if g.descent_clearance is None else self.descent_start(d, state.active, x, y, zg)
+        zs = zpre if g.descent_clearance is None else self.descent_start(d, state.active, x, y, zg, state.obj_size)
         pre_grasp = jnp.stack([x, y, zs, yaw_q, fo, fo], axis=1)
+        drops = None
         if reset is None:
             grasping = jnp.ones((B,), bool)
             gripper_q = pre_grasp
         else:
             mask, keys, n_new = reset
             grasping = ~mask
-            state = self._start_rounds(state, mask, keys, n_new)
+            state, drops = self._start_rounds(state, mask, keys, n_new)
             d = state.data
             gripper_q = jnp.where(mask[:, None], g_park, pre_grasp)
         z_before = d.qpos[:, self._obj_qidx[:, 2]]  # (B, P)
@@ -559,7 +777,7 @@ class Simulator:
             grasped = success[:, None] & (jnp.arange(P)[None] == idx[:, None])
             return success, jnp.where(success, idx, -1), jnp.where(grasping, gap, 0.0), active & ~grasped
 
-        step = jax.vmap(mjx.step, in_axes=(None, 0))
+        step = self._stepper(state.obj_size)
         n_total = self.n_grasp_steps if reset is None else max(self.n_grasp_steps, self.n_settle_reset)
         sched = np.concatenate([self.schedule, np.zeros((n_total - n_main, 3), np.float32)])
         xs = (jnp.arange(n_total), jnp.asarray(sched))
@@ -568,6 +786,8 @@ class Simulator:
         def body(carry, x):
             d, active, ovf, res = carry
             t, s = x
+            if drops is not None:  # new pile scenes: their objects drop one after another
+                d, active = self._drop_due(d, active, t, drops, state.obj_size)
             # At the first post-lift step: judge the grasp, park the gripper and the object.
             is_eval = t == n_main
             ev = evaluate(d, active)
@@ -579,7 +799,7 @@ class Simulator:
             )
             ctrl = jnp.where(t >= n_main, park_ctrl, ctrl_fn(s))
             pin_q, pin_v = self._pin_masks(active)
-            d = self._pin(step(self.mx, d.replace(ctrl=ctrl)), pin_q, pin_v)
+            d = self._pin(step(d.replace(ctrl=ctrl)), pin_q, pin_v)
             return (d, active, ovf | self._overflow_now(d, B), res), None
 
         carry = (d, state.active, state.overflow, res0)
@@ -598,11 +818,11 @@ class Simulator:
         )
         return state, result
 
-    def descent_start(self, d: mjx.Data, active, x, y, zg):
+    def descent_start(self, d: mjx.Data, active, x, y, zg, obj_size=None):
         """(B,) TCP height where a guarded descent starts (``cfg.grasp.descent_clearance``).
 
         d: batched Data with current geom poses; active: (B, P) bool; x, y, zg: (B,) grasp
-        point.  The top of an object is the highest corner of its geom's bounding box in the
+        point; obj_size: (B, P, 3) per-world object sizes (None: the compiled sizes).  The top of an object is the highest corner of its geom's bounding box in the
         world frame; objects count when their bounding sphere (xy distance) comes within
         ``finger_stroke / 2 + REACH_MARGIN`` of the grasp axis.  Result: clearance above the
         highest such top or above zg, whichever is higher, capped at ``zg + approach_height``.
@@ -611,10 +831,14 @@ class Simulator:
         ids = self.scene.object_geom_ids
         pos, rot = d.geom_xpos[:, ids], d.geom_xmat[:, ids]  # (B, P, 3), (B, P, 3, 3)
         rz = rot[:, :, 2, :]  # (B, P, 3): world z of each geom axis
-        c, h = jnp.asarray(self._obj_aabb[:, :3]), jnp.asarray(self._obj_aabb[:, 3:])
+        if obj_size is None:
+            aabb, rbound = jnp.asarray(self._obj_aabb), jnp.asarray(self._obj_rbound)
+        else:
+            aabb, rbound = self.object_bounds(obj_size)
+        c, h = aabb[..., :3], aabb[..., 3:]
         top = pos[..., 2] + (rz * c).sum(-1) + (jnp.abs(rz) * h).sum(-1)  # (B, P)
         dxy = jnp.linalg.norm(pos[..., :2] - jnp.stack([x, y], axis=-1)[:, None], axis=-1)
-        near = active & (dxy < g.finger_stroke / 2 + REACH_MARGIN + jnp.asarray(self._obj_rbound))
+        near = active & (dxy < g.finger_stroke / 2 + REACH_MARGIN + rbound)
         z_top = jnp.where(near, top, -jnp.inf).max(axis=1)
         return jnp.minimum(zg + g.approach_height, jnp.maximum(zg, z_top) + g.descent_clearance)
 
@@ -644,6 +868,20 @@ class Simulator:
         q = state.data.qpos[:, self._obj_qidx]
         return q[..., :3], q[..., 3:]
 
+    def object_bottoms(self, state: SimState) -> jax.Array:
+        """(B, P) height (m) above the table of each body's lowest point, bounded from below by
+        the lowest corner of its geom's bounding box in the world frame (exact for boxes; for
+        tilted round shapes and meshes a few mm low).  A body whose bound is clearly above 0
+        rests on another object (or leans on one)."""
+        ids = self.scene.object_geom_ids
+        d = state.data
+        pos, rot = d.geom_xpos[:, ids], d.geom_xmat[:, ids]  # (B, P, 3), (B, P, 3, 3)
+        rz = rot[:, :, 2, :]
+        aabb, _ = self.object_bounds(state.obj_size)
+        c, h = aabb[..., :3], aabb[..., 3:]
+        low = pos[..., 2] + (rz * c).sum(-1) - (jnp.abs(rz) * h).sum(-1)
+        return low - self.cfg.workspace.table_z
+
     def object_velocities(self, state: SimState) -> jax.Array:
         """-> (B, P, 6) linear (m/s) then angular (rad/s) velocity of every pool body."""
         return state.data.qvel[:, self._obj_vidx]
@@ -667,29 +905,42 @@ class Simulator:
         d = self._fresh_data(qpos, jnp.zeros((B, self.nv)), self._park_ctrl(B))
         rgb = jnp.broadcast_to(jnp.asarray(self.scene.default_geom_rgb), (B,) + self.scene.default_geom_rgb.shape)
         zeros = jnp.zeros((B,), bool)
+        size = jnp.broadcast_to(jnp.asarray(self.scene.object_size), (B, self.P, 3))
         return SimState(data=d, active=jnp.zeros((B, self.P), bool), geom_rgb=rgb,
-                        n_objects=jnp.zeros((B,), jnp.int32), error=zeros, overflow=zeros)
+                        n_objects=jnp.zeros((B,), jnp.int32), error=zeros, overflow=zeros,
+                        obj_size=size)
 
     def empty(self, n_worlds: int) -> SimState:
         """B = n_worlds worlds with every object and the gripper parked (for scripted scenes)."""
         return self._empty_jit(int(n_worlds))
 
-    def _set_objects_impl(self, state, pos, quat, active):
+    def _set_objects_impl(self, state, pos, quat, active, size):
         qpos = state.data.qpos.at[:, self._obj_qidx].set(jnp.concatenate([pos, quat], axis=-1))
         qvel = state.data.qvel.at[:, self._obj_vidx].set(0.0)
         d = self._place(state.data.replace(qpos=qpos, qvel=qvel), active, jnp.ones((state.n_worlds,), bool))
-        return state.replace(data=d, active=active, n_objects=active.sum(axis=1).astype(jnp.int32))
+        return state.replace(data=d, active=active, n_objects=active.sum(axis=1).astype(jnp.int32),
+                             obj_size=size)
 
-    def set_objects(self, state: SimState, pos, quat, active) -> SimState:
+    def set_objects(self, state: SimState, pos, quat, active, size=None) -> SimState:
         """Teleport objects (scripted scenes, label generation): pos (B, P, 3), quat (B, P, 4)
-        wxyz, active (B, P) bool; inactive ones are parked, velocities zeroed."""
+        wxyz, active (B, P) bool; inactive ones are parked, velocities zeroed.  size: optional
+        (B, P, 3) geom sizes (sized families only; fixed shapes keep theirs), default: unchanged."""
+        B = state.n_worlds
+        if size is None:
+            size = state.obj_size
+        else:
+            size = jnp.asarray(size, jnp.float32)
+            if size.shape != (B, self.P, 3):
+                raise ValueError(f"set_objects: size must have shape ({B}, {self.P}, 3), got {size.shape}")
+            size = jnp.where(jnp.asarray(self._fixed)[None, :, None], state.obj_size, size)
         return self._set_jit(state, jnp.asarray(pos, jnp.float32), jnp.asarray(quat, jnp.float32),
-                             jnp.asarray(active, bool))
+                             jnp.asarray(active, bool), size)
 
     def _settle_impl(self, state: SimState, n_steps: int) -> SimState:
         B = state.n_worlds
         park_ctrl = self._park_ctrl(B)
-        d, ovf = self._run(state.data, state.active, state.overflow, lambda _: park_ctrl, jnp.zeros((n_steps,)))
+        d, _, ovf = self._run(state.data, state.active, state.overflow, lambda _: park_ctrl, jnp.zeros((n_steps,)),
+                              state.obj_size)
         return self._housekeep(state.replace(data=d, overflow=ovf))
 
     def settle(self, state: SimState, seconds: float) -> SimState:
@@ -708,7 +959,7 @@ class Simulator:
         nd = self._fresh_data(d.qpos[idx], d.qvel[idx], d.ctrl[idx])
         return SimState(data=nd, active=state.active[idx], geom_rgb=state.geom_rgb[idx],
                         n_objects=state.n_objects[idx], error=state.error[idx],
-                        overflow=state.overflow[idx])
+                        overflow=state.overflow[idx], obj_size=state.obj_size[idx])
 
     # Pure, un-validated batched entry points for use inside the caller's own jit:
     # reset_batched(keys (B, 2), n_objects (B,) int32) -> SimState;
