@@ -2,6 +2,7 @@
 # The GPU runs behind bench/RESULTS.md "Cluttered scenes" (one H100), in stages so that each fits
 # one device call:  bench/clutter_h100.sh OUT_DIR parity|throughput|train|difficulty
 set -euo pipefail
+set -f  # no globbing: the overrides hold JSON lists
 out=${1:?OUT_DIR}; stage=${2:?stage}
 mkdir -p "$out"
 export PYTHONUNBUFFERED=1
@@ -9,6 +10,11 @@ LEGACY='scene.shapes=["cuboid_long","cuboid_flat","cube","cuboid_tall","cube_hal
 case $stage in
   parity)  # Warp renderer vs the JAX ray caster on the new scenes (per-world object sizes)
     python bench/render_parity.py --worlds 64 --objects 10 --out "$out/render_parity.json" 2>&1 | tee "$out/render_parity.txt" ;;
+  parity3)  # the same, split by object family: boxes only, and the first benchmark's blocks
+    python bench/render_parity.py --worlds 64 --objects 10 --out "$out/render_parity.json" 2>&1 | grep -v "^Module" | tee "$out/render_parity.txt"
+    python bench/render_parity.py --worlds 64 --objects 10 --set 'scene.shapes=["box","box","box","box","box","box","box","box","box","box"]' \
+      --out "$out/render_parity_boxes.json" 2>&1 | grep -v "^Module" | tee "$out/render_parity_boxes.txt"
+    python bench/render_parity.py --worlds 64 --objects 10 --set ${LEGACY//;/ } 2>&1 | grep -v "^Module" | tee "$out/render_parity_legacy.txt" ;;
   throughput)  # training-loop attempts/s: the first benchmark's scenes vs the new ones, side by side
     python bench/env_throughput.py --config gpu --impl warp --renderer warp --objects 10 --repeats 1 --loop 6 \
       --only-loop --set camera.render_batch=1024 --worlds 4096 \

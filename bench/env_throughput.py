@@ -58,13 +58,13 @@ def bench_one(cfg, n_worlds, n_objects, repeats, loop_iterations=0, only_loop=Fa
     def attempt(key, n):
         s = env.step_reset(key, n)
         pix, rot = highest(s)
-        s, r = env.step_grasp(s, pix, rot)
+        s, r = env.step_grasp(s, pix, rot, jax.random.fold_in(key, 1))
         return s.height, r.success
 
     @jax.jit
     def grasp(state):
         pix, rot = highest(state)
-        s, r = env.step_grasp(state, pix, rot)
+        s, r = env.step_grasp(state, pix, rot, jax.random.PRNGKey(1))
         return s.height, r.success
 
     def loop(state, key):
@@ -77,7 +77,8 @@ def bench_one(cfg, n_worlds, n_objects, repeats, loop_iterations=0, only_loop=Fa
             pending = env.round_over(s) | s.sim.error  # rounds that ended last iteration
             action = min_width_grasp(s.height, cfg)[0]  # (B, 3) [rotation, row, col]
             before = s.sim.active.sum(axis=1)
-            s, r = env.step_grasp_or_reset(s, action[:, 1:], action[:, 0], pending, k, n)
+            k_reset, k_obs = jax.random.split(k)  # k_obs: the sensor model's noise
+            s, r = env.step_grasp_or_reset(s, action[:, 1:], action[:, 0], pending, k_reset, n, k_obs)
             grasped = ~pending
             gone = before - s.sim.active.sum(axis=1) - r.success.astype(jnp.int32)
             return (s, att + grasped.sum(), suc + (r.success & grasped).sum(), res + pending.sum(),

@@ -31,7 +31,7 @@ def run_variant(cfg: C.Config, n_worlds: int, n_objects: int, key: int) -> dict:
     env = VagsEnv(cfg)
     state = env.reset(jax.random.PRNGKey(key), np.full(n_worlds, n_objects))
     action, _ = min_width_grasp(state.height, cfg)  # (B, 3) [rotation, row, col]
-    new, res = env.step_grasp(state, action[:, 1:], action[:, 0])
+    new, res = env.step_grasp(state, action[:, 1:], action[:, 0], jax.random.PRNGKey(1))  # key: sensor noise
     err = np.asarray(new.sim.error)
     return {
         "impl": cfg.sim.impl, "worlds": n_worlds, "objects": n_objects, "key": key,

@@ -86,7 +86,7 @@ def main(argv=None):
         hm_fn = jax.jit(lambda dep, im, pose: heightmap.heightmaps(dep, im, pose, cam, ws))
         ho_fn = jax.jit(lambda dep, pose: height_only(dep, pose, cam, ws))
         hd_fn = jax.jit(lambda dep, pose: height_dump_cell(dep, pose, cam, ws))
-        obs_fn = jax.jit(lambda s: env.observe_global(s))
+        obs_fn = jax.jit(lambda s: env.observe_global(s, jax.random.PRNGKey(0)))  # key: sensor noise
         t_r, (depth, im) = timed(render_fn, xpos, xmat, rgb, pose, repeats=args.repeats)
         extra = {}
         if args.renderer == "warp":

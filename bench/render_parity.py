@@ -134,7 +134,16 @@ def measure(cfg, worlds: int, objects: int) -> dict:
         hm = heightmap.heightmaps(o.depth, o.rgb, pose, cfg.camera, cfg.workspace)
         out[backend] = (np.asarray(o.depth), np.asarray(o.geom_id), np.asarray(hm[1]))
     (dj, gj, hj), (dw, gw, hw) = out["jax"], out["warp"]
-    return parity_stats(dj, gj, hj, dw, gw, hw)
+    stats = parity_stats(dj, gj, hj, dw, gw, hw)
+    # Where the renderers disagree on hit / miss: the geom type that the one hitting renderer saw.
+    import mujoco
+
+    one = (dj > 0) != (dw > 0)
+    seen = np.where(dj > 0, gj, gw)[one]
+    types = np.asarray(env.scene.mj_model.geom_type)[np.maximum(seen, 0)]
+    stats["hit_miss_by_geom_type"] = {mujoco.mjtGeom(int(t)).name.replace("mjGEOM_", "").lower(): int((types == t).sum())
+                                      for t in np.unique(types)}
+    return stats
 
 
 def main(argv=None) -> int:
@@ -156,6 +165,7 @@ def main(argv=None) -> int:
     print(f"hit/miss disagreement: {stats['hit_miss_disagreement']:.5f}; same geom id: {stats['same_geom']:.4f}")
     print(f"heightmap mean |diff|: {stats['heightmap_mean_abs_mm']:.3f} mm; cells differing > 2 mm: "
           f"{stats['heightmap_cells_over_2mm']:.4f}")
+    print(f"hit/miss disagreement pixels by the geom type hit: {stats.get('hit_miss_by_geom_type')}")
     failed = failures(stats)
     print("render parity: PASS" if not failed else "render parity: FAIL: " + "; ".join(failed))
     if args.out:

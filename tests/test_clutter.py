@@ -63,14 +63,16 @@ def test_sizes_and_colours_vary_across_worlds_and_resets_within_ranges(clutter_e
 
 
 def test_a_pile_has_an_object_resting_on_another_in_most_resets(clutter_env, two_resets):
+    """Three objects dropped onto a small region: in most worlds one rests on or leans against
+    another (its bottom above the table, or tilted out of every pose it could rest in alone)."""
     env = clutter_env
-    stacked = []
+    piled, on_top = [], []
     for s in two_resets:
-        bottom = np.asarray(env.sim.object_bottoms(s.sim))
-        active = np.asarray(s.sim.active)
-        stacked.extend(((bottom > 0.005) & active).any(axis=1))
+        piled.extend(np.asarray(env.sim.piled(s.sim)).any(axis=1))
+        on_top.extend(((np.asarray(env.sim.object_bottoms(s.sim)) > 0.005) & np.asarray(s.sim.active)).any(axis=1))
         assert not np.asarray(s.sim.error).any() and not np.asarray(s.sim.overflow).any()
-    assert np.mean(stacked) > 0.5, f"worlds with an object on another: {np.mean(stacked):.2f}"
+    assert np.mean(piled) > 0.5, f"worlds with an object on / against another: {np.mean(piled):.2f}"
+    assert np.mean(on_top) > 0.15, f"worlds with an object on top of another: {np.mean(on_top):.2f}"
 
 
 def test_scatter_placement_rarely_stacks(clutter_env):
@@ -81,7 +83,8 @@ def test_scatter_placement_rarely_stacks(clutter_env):
     s = env.reset(jax.random.PRNGKey(1), np.full(PILE_WORLDS, 3, np.int32))
     bottom = np.asarray(env.sim.object_bottoms(s.sim))
     stacked = ((bottom > 0.005) & np.asarray(s.sim.active)).any(axis=1)
-    assert stacked.mean() < 0.5
+    assert stacked.mean() < 0.25
+    assert np.asarray(env.sim.piled(s.sim)).any(axis=1).mean() < 0.5
 
 
 def test_unseen_set_shares_no_shape_or_size_range_with_training():
@@ -240,5 +243,5 @@ def test_pile_scenes_started_in_the_training_step_drop_while_others_grasp(clutte
     speed = np.linalg.norm(np.asarray(sim.object_velocities(st))[reset][active[reset]][:, :3], axis=-1)
     assert np.mean(speed < 0.05) >= 0.8, speed  # most at rest (a capsule may still roll)
     bottom = np.asarray(sim.object_bottoms(st))[reset][active[reset]]
-    assert bottom.min() > -0.005 and bottom.max() < 0.15
+    assert bottom.min() > -0.003 and bottom.max() < 0.15
     assert not np.asarray(st.error).any() and not np.asarray(st.overflow).any()

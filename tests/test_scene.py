@@ -151,8 +151,14 @@ def test_mjx_contact_budget_is_scene_sized(scene):
     # 10 objects: 4 on the table + ~16 with other objects each, 2 pads x 3 objects x 8, 8 pads
     # on the table -> 20 * 10 + 56 = 256 contacts per world.
     assert contacts_per_world(cfg) == 256
-    d = mjx.make_data(mjx.put_model(scene.mj_model, impl="jax"), impl="jax")
+    # The ten fixed blocks (meshes: many candidate contact slots per pair) hit the budget ...
+    legacy = build_scene(replace(cfg, **{"scene.shapes": C_legacy}))
+    d = mjx.make_data(mjx.put_model(legacy.mj_model, impl="jax"), impl="jax")
     assert d._impl.ncon == contacts_per_world(cfg)
+    assert d._impl.nefc <= 3 * contacts_per_world(cfg) + 16
+    # ... the default boxes and capsules (primitive pairs) have fewer slots than the budget.
+    d = mjx.make_data(mjx.put_model(scene.mj_model, impl="jax"), impl="jax")
+    assert d._impl.ncon <= contacts_per_world(cfg)
     # Capsules roll with rolling friction (condim 6): up to 6 rows per contact; 3 without them.
     assert rows_per_contact(cfg) == 6
     assert rows_per_contact(replace(cfg, **{"scene.shapes": C_legacy})) == 3

@@ -185,6 +185,10 @@ class Scene:
                f"Scene.colour_jitter must be in [0, 0.5], got {self.colour_jitter!r}")
         _check(self.placement in PLACEMENTS,
                f"Scene.placement must be one of {PLACEMENTS}, got {self.placement!r}")
+        _check(self.placement != "pile" or self.settle_time >= 0.2,
+               f"Scene.placement = 'pile' drops its objects one after another during the first half "
+               f"of Scene.settle_time, which must then be >= 0.2 s (got {self.settle_time}); raise it, "
+               "or use scene.placement=scatter")
         _check(isinstance(self.pile_radius, (int, float)) and 0.0 <= self.pile_radius <= 0.2,
                f"Scene.pile_radius must be in [0, 0.2] m, got {self.pile_radius!r}")
         _check(self.friction > 0, f"Scene.friction must be > 0, got {self.friction}")

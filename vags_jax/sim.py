@@ -101,7 +101,7 @@ import mujoco
 from mujoco import mjx
 
 from vags_jax.config import Config
-from vags_jax.scene import (FINGER_CLOSED_TARGET, KIND_FIXED, SceneModel, contacts_per_world, rows_per_contact,
+from vags_jax.scene import (FINGER_CLOSED_TARGET, KIND_BOX, KIND_CAPSULE, KIND_FIXED, KIND_SPHERE, SceneModel, contacts_per_world, rows_per_contact,
                             sized_body_physics)
 
 # mujoco_warp OverflowType bits that mean a buffer was too small (data were dropped):
@@ -869,18 +869,35 @@ class Simulator:
         return q[..., :3], q[..., 3:]
 
     def object_bottoms(self, state: SimState) -> jax.Array:
-        """(B, P) height (m) above the table of each body's lowest point, bounded from below by
-        the lowest corner of its geom's bounding box in the world frame (exact for boxes; for
-        tilted round shapes and meshes a few mm low).  A body whose bound is clearly above 0
-        rests on another object (or leans on one)."""
+        """(B, P) height (m) above the table of each body's lowest point: exact for boxes,
+        capsules and spheres; for meshes the lowest corner of the geom's world bounding box (a
+        few mm low when tilted).  A body whose bottom is clearly above 0 rests on another."""
         ids = self.scene.object_geom_ids
         d = state.data
         pos, rot = d.geom_xpos[:, ids], d.geom_xmat[:, ids]  # (B, P, 3), (B, P, 3, 3)
-        rz = rot[:, :, 2, :]
+        rz = rot[:, :, 2, :]  # world z of each geom axis
         aabb, _ = self.object_bounds(state.obj_size)
         c, h = aabb[..., :3], aabb[..., 3:]
         low = pos[..., 2] + (rz * c).sum(-1) - (jnp.abs(rz) * h).sum(-1)
+        kind = jnp.asarray(self.scene.object_kind)
+        size = state.obj_size
+        round_low = pos[..., 2] - size[..., 0] - jnp.where(kind == KIND_CAPSULE, jnp.abs(rz[..., 2]) * size[..., 1], 0.0)
+        low = jnp.where((kind == KIND_CAPSULE) | (kind == KIND_SPHERE), round_low, low)
         return low - self.cfg.workspace.table_z
+
+    def piled(self, state: SimState, lift: float = 0.005, tilt_deg: float = 10.0) -> jax.Array:
+        """(B, P) bool: active bodies that rest on or lean against another body -- their lowest
+        point is more than ``lift`` above the table, or (boxes, capsules) they are tilted by
+        more than ``tilt_deg`` from every pose they can rest in alone on a flat table (a box on
+        a face: some axis vertical; a capsule on its side: its axis horizontal)."""
+        ids = self.scene.object_geom_ids
+        rz = state.data.geom_xmat[:, ids][:, :, 2, :]  # (B, P, 3)
+        kind = jnp.asarray(self.scene.object_kind)
+        s = np.sin(np.radians(tilt_deg))
+        box_tilted = jnp.abs(rz).max(-1) < np.cos(np.radians(tilt_deg))
+        cap_tilted = jnp.abs(rz[..., 2]) > s
+        tilted = jnp.where(kind == KIND_BOX, box_tilted, jnp.where(kind == KIND_CAPSULE, cap_tilted, False))
+        return state.active & ((self.object_bottoms(state) > lift) | tilted)
 
     def object_velocities(self, state: SimState) -> jax.Array:
         """-> (B, P, 6) linear (m/s) then angular (rad/s) velocity of every pool body."""
