@@ -91,11 +91,15 @@ def main(argv=None) -> int:
     p.add_argument("--set", nargs="*", default=[], metavar="SECTION.FIELD=VALUE", help="config overrides")
     p.add_argument("--worlds", type=int, default=4, help="parallel worlds (objects 1..max_objects, cycling)")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--objects", type=int, default=None,
+                   help="objects in every world (default: 1, 2, ... cycling up to scene.max_objects)")
     args = p.parse_args(argv)
     try:
         cfg = C.replace(C.preset(args.config), **C.parse_overrides(args.set))
         if args.worlds < 1:
             raise ValueError(f"--worlds must be >= 1, got {args.worlds}")
+        if args.objects is not None and not 1 <= args.objects <= cfg.scene.max_objects:
+            raise ValueError(f"--objects must be in 1..{cfg.scene.max_objects} (scene.max_objects), got {args.objects}")
     except ValueError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
@@ -104,7 +108,7 @@ def main(argv=None) -> int:
     B, N, H = args.worlds, cfg.scene.max_objects, cfg.workspace.heightmap_px
     R = cfg.grasp.n_rotations
     scale = max(1, 256 // H)
-    n_objects = np.array([1 + b % N for b in range(B)], np.int32)
+    n_objects = np.array([args.objects or 1 + b % N for b in range(B)], np.int32)
     _say(f"demo: config {args.config}, {B} worlds with {n_objects.tolist()} objects, heightmap {H} px "
           f"({1000 * cfg.workspace.pixel_size:.1f} mm/px), camera {cfg.camera.width}x{cfg.camera.height}, "
           f"impl={cfg.sim.impl}")
