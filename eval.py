@@ -110,6 +110,9 @@ def main(argv=None) -> int:
         else:
             run_cfg = C.preset(args.config or "tiny")
         cfg = C.replace(run_cfg, **overrides)
+        from vags_jax import scene
+
+        scene.build_spec(cfg)  # the scene's own checks (shape names), in milliseconds
         if policy == "gdnet" and (cfg.net != run_cfg.net or cfg.workspace != run_cfg.workspace):
             raise ValueError("--set must not change net.* or workspace.*: the trained GDNet needs the "
                              "network and heightmaps it was trained with")

@@ -601,6 +601,7 @@ EVAL_FLAG_CASES = [
     (["--step", "3"], r"--step selects a gdnet checkpoint; policy 'heuristic' uses none"),
     (["--set", "dqn.gamma=2"], r"dqn\.gamma must be in \[0, 1\)"),
     (["--set", "scene.max_objects=true"], r"scene\.max_objects must be an int, got True"),
+    (["--set", 'scene.shapes=["cube", "cuboid_long", "blob"]'], r"unknown shape 'blob'"),
     (["--config", "nope"], r"unknown config preset 'nope'"),
     (["--run", ""], r"--run must not be empty"),
     (["--unknown"], r"unrecognized arguments: --unknown"),
