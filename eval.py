@@ -12,6 +12,9 @@ highest, heuristic (see vags_jax/evaluate.py).  The configuration is the run's c
 (or the --config preset) with --set overrides applied; the scene must hold the largest group
 (scene.max_objects).  Prints a Markdown table and writes the full report as JSON to --out, or
 to RUN/eval_<policy>[_step<N>].json.
+
+Every input (flags, --set values, the run directory and its checkpoint) is checked before
+anything is compiled: a bad one ends with one line on stderr and exit code 2.
 """
 from __future__ import annotations
 
@@ -19,9 +22,14 @@ import argparse
 import os
 import sys
 
+from vags_jax import cli
+
+PROG = "eval.py"
+MAX_GROUP = 1000  # object counts above this are refused while parsing --groups
+
 
 def parse_args(argv=None):
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = cli.ArgumentParser(prog=PROG, description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--run", default=None, help="run directory written by train.py (config.json + checkpoints/)")
     p.add_argument("--policy", default=None,
                    help="gdnet | random | highest | heuristic (default: gdnet with --run, else heuristic)")
@@ -29,11 +37,14 @@ def parse_args(argv=None):
     p.add_argument("--set", nargs="*", default=[], metavar="SECTION.FIELD=VALUE",
                    help="evaluation config overrides, e.g. scene.max_objects=10 stage1.max_attempts_extra=5")
     p.add_argument("--groups", default="1-10", help="object counts: 1,2,3 or 1-10 or 1-3,5 (default 1-10)")
-    p.add_argument("--rounds", type=int, default=50, help="rounds per group = parallel worlds (default 50)")
-    p.add_argument("--seed", type=int, default=None, help="PRNG seed (default: the config's seed)")
-    p.add_argument("--step", type=int, default=None, help="checkpoint step for gdnet (default: latest)")
+    p.add_argument("--rounds", type=cli.int_in(1, 1 << 20), default=50,
+                   help="rounds per group = parallel worlds (default 50)")
+    p.add_argument("--seed", type=cli.int_in(0, 2**32 - 1), default=None,
+                   help="PRNG seed (default: the config's seed)")
+    p.add_argument("--step", type=cli.int_in(0), default=None, help="checkpoint step for gdnet (default: latest)")
     p.add_argument("--out", default=None, help="JSON report path (default: RUN/eval_<policy>.json)")
-    p.add_argument("--speed", type=float, default=None, help="motion-time model: gripper speed m/s (default 0.5)")
+    p.add_argument("--speed", type=cli.positive_float(100.0), default=None,
+                   help="motion-time model: gripper speed m/s (default 0.5)")
     p.add_argument("--objects", default=None, choices=("train", "unseen", "legacy"),
                    help="object set of the scenes (default: the config's pool; 'unseen': the held-out "
                         "shapes, never trained on)")
@@ -52,7 +63,7 @@ def parse_groups(text: str) -> list[int]:
             if "-" in part:
                 a, b = part.split("-", 1)
                 a, b = int(a), int(b)
-                if b < a:
+                if b < a or b > MAX_GROUP:
                     raise ValueError
                 out.extend(range(a, b + 1))
             else:
@@ -62,48 +73,81 @@ def parse_groups(text: str) -> list[int]:
     return sorted(set(out))
 
 
+def check_rounds_fit(cfg, rounds: int) -> None:
+    """--rounds worlds run at once: their Q maps must fit (as stage1.n_worlds, config.py)."""
+    from vags_jax import config as C
+
+    px = cfg.workspace.heightmap_px
+    need = 2 * rounds * cfg.net.n_rotations * px * px
+    if need > C.MAX_DEVICE_BYTES:
+        raise ValueError(f"--rounds {rounds:,} worlds need Q maps of {cfg.net.n_rotations} x {px} x {px} "
+                         f"each, {need / 2**30:,.0f} GiB at 2 bytes per value, more than "
+                         f"{C.MAX_DEVICE_BYTES // 2**30} GiB; lower --rounds")
+
+
 def main(argv=None) -> int:
-    args = parse_args(argv)
-    from vags_jax import checkpoint, config as C, evaluate as E
+    args = parse_args(argv)  # bad flags: one line, exit code 2
+    from vags_jax import config as C
 
     policy = args.policy or ("gdnet" if args.run else "heuristic")
     try:
-        if policy not in E.POLICIES:
-            raise ValueError(f"unknown policy {policy!r}; choose one of {', '.join(E.POLICIES)}")
+        # Checks with light imports first, so a bad input is refused in about a second ...
         if policy == "gdnet" and not args.run:
             raise ValueError("policy gdnet needs --run RUN_DIR (a run written by train.py)")
         if args.run and args.config:
             raise ValueError("--run uses the run's own config.json; drop --config (use --set to override)")
+        if args.run is not None and not args.run:
+            raise ValueError("--run must not be empty")
+        if args.run and os.path.exists(args.run) and not os.path.isdir(args.run):
+            raise ValueError(f"--run {args.run!r} is a file; give the run directory train.py wrote")
         if args.run and not os.path.isdir(args.run):
-            raise checkpoint.CheckpointError(f"run directory {args.run!r} does not exist")
+            raise ValueError(f"run directory {args.run!r} does not exist")
+        if args.step is not None and policy != "gdnet":
+            raise ValueError(f"--step selects a gdnet checkpoint; policy {policy!r} uses none: drop --step")
+        if args.out is not None:
+            cli.check_writable_file(args.out, "--out")
         groups = parse_groups(args.groups)
-        variables, step = None, None
-        if policy == "gdnet":
-            run_cfg, variables, step = E.load_gdnet(args.run, args.step)
-        elif args.run:
-            run_cfg = checkpoint.load_config(args.run)
+        overrides = C.parse_overrides(args.set)
+        if args.run:
+            from vags_jax import checkpoint
+
+            run_cfg = checkpoint.load_config(args.run)  # missing / damaged config.json
+            if policy == "gdnet":  # missing step, damaged files
+                checkpoint.read(args.run, args.step, parts=["learner"])
         else:
             run_cfg = C.preset(args.config or "tiny")
         scene_over = dict(C.LEGACY_SCENES) if args.scenes == "legacy" else {}
         if args.objects:
             scene_over.update({"scene.shapes": C.object_pool(args.objects, run_cfg.scene.pool_size),
                                "scene.copies_per_shape": 1})
-        cfg = C.replace(run_cfg, **scene_over, **C.parse_overrides(args.set))
+        cfg = C.replace(run_cfg, **scene_over, **overrides)
+        from vags_jax import scene
+
+        scene.build_spec(cfg)  # the scene's own checks (shape names), in milliseconds
         if policy == "gdnet" and (cfg.net != run_cfg.net or cfg.workspace != run_cfg.workspace):
             raise ValueError("--set must not change net.* or workspace.*: the trained GDNet needs the "
                              "network and heightmaps it was trained with")
+        check_rounds_fit(cfg, args.rounds)
+        # ... then the rest, which needs the simulator's modules (still nothing compiled).
+        from vags_jax import evaluate as E
+
+        if policy not in E.POLICIES:
+            raise ValueError(f"unknown policy {policy!r}; choose one of {', '.join(E.POLICIES)}")
+        variables, step = None, None
+        if policy == "gdnet":  # the learner, checked against the run's network config
+            _, variables, step = E.load_gdnet(args.run, args.step)
         groups = E.check_groups(groups, cfg, args.rounds)
         time_model = E.MotionTimeModel() if args.speed is None else E.MotionTimeModel(speed=args.speed)
+        out = args.out
+        if out is None and args.run:
+            tag = "".join(f"_{t}" for t in (args.objects, args.scenes) if t)
+            out = os.path.join(args.run, f"eval_{policy}{tag}" + (f"_step{step}" if step is not None else "") + ".json")
+            cli.check_writable_file(out, "--run")
     except ValueError as e:  # includes CheckpointError and config validation
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+        return cli.fail(PROG, e)
 
     import jax
 
-    out = args.out
-    if out is None and args.run:
-        tag = "".join(f"_{t}" for t in (args.objects, args.scenes) if t)
-        out = os.path.join(args.run, f"eval_{policy}{tag}" + (f"_step{step}" if step is not None else "") + ".json")
     print(f"evaluating {policy}" + (f" ({args.run}, checkpoint {step})" if step is not None else "")
           + f": groups {groups}, {args.rounds} rounds each, impl={cfg.sim.impl}, devices={jax.devices()}",
           file=sys.stderr)

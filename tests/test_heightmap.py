@@ -124,7 +124,8 @@ def test_real_frame_validation():
     # NaN / inf depth -> missing.
     bad = depth.copy()
     bad[:] = np.nan
-    _, h_nan = heightmap.heightmap_from_frame(bad, rgb, pose, cam, ws)
+    with pytest.warns(heightmap.FrameWarning, match="valid"):  # no depth at all: said, not hidden
+        _, h_nan = heightmap.heightmap_from_frame(bad, rgb, pose, cam, ws)
     assert np.all(h_nan == 0)
     cases = [
         (dict(depth=depth[:-1]), "expects"),

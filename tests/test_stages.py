@@ -1,11 +1,15 @@
 """Stage 1 end to end on CPU: train a few iterations, checkpoint, resume, compare bit for bit."""
 import json
 import os
+import shutil
+import time
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 import pytest
 
+import eval as eval_cli
 import train
 from vags_jax import checkpoint, replay
 from vags_jax.stages import METRICS, Stage1
@@ -73,12 +77,78 @@ def test_metrics_are_sane(runs):
 
 def test_resume_errors(tmp_path, capsys):
     assert train.main(["--out", str(tmp_path / "nope"), "--resume"]) == 2
-    assert "config.json" in capsys.readouterr().err
+    assert "does not exist; drop --resume" in capsys.readouterr().err
 
 
-def test_refuses_to_overwrite_a_run(runs):
-    with pytest.raises(SystemExit, match="--resume"):
-        train.main(["--config", "tiny", "--out", runs[0]])
+def test_refuses_to_overwrite_a_run(runs, capsys):
+    assert train.main(["--config", "tiny", "--out", runs[0]]) == 2
+    assert "already holds a run (checkpoint 4); pass --resume" in capsys.readouterr().err
+
+
+def _files(path):
+    out = {}
+    for root, _, names in os.walk(path):
+        for n in names:
+            with open(os.path.join(root, n), "rb") as f:
+                out[os.path.relpath(os.path.join(root, n), path)] = f.read()
+    return out
+
+
+def test_resume_with_iterations_already_done_changes_nothing(runs, capsys):
+    """A run at 4: asking for 2 is an error, asking for 4 (or a plain --resume) has nothing to
+    do; neither trains nor rewrites config.json (which would stall later resumes)."""
+    before = _files(runs[0])
+    assert train.main(["--out", runs[0], "--resume", "--quiet", "--set", "stage1.iterations=2"]) == 2
+    assert "already at iteration 4: the requested stage1.iterations=2 are already done" in capsys.readouterr().err
+    assert train.main(["--out", runs[0], "--resume", "--quiet"]) == 0
+    assert "already at iteration 4 of 4: nothing to train (config.json unchanged)" in capsys.readouterr().err
+    assert _files(runs[0]) == before
+
+
+def test_damaged_checkpoint_is_named_before_compiling(runs, tmp_path, capsys):
+    """The largest file of the latest checkpoint cut in half (a partial copy): train.py --resume
+    and eval.py name the step directory and the fallback, in one line, in seconds."""
+    run = str(tmp_path / "run")
+    shutil.copytree(runs[0], run)
+    step_dir = os.path.join(run, "checkpoints", "4")
+    files = [os.path.join(r, f) for r, _, fs in os.walk(step_dir) for f in fs]
+    biggest = max(files, key=os.path.getsize)
+    with open(biggest, "r+b") as f:
+        f.truncate(os.path.getsize(biggest) // 2)
+    for main, argv in ((train.main, ["--out", run, "--resume", "--quiet", "--set", "stage1.iterations=6"]),
+                       (eval_cli.main, ["--run", run, "--groups", "1-2", "--rounds", "2"])):
+        t = time.time()
+        assert main(argv) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "Traceback" not in err[0], err
+        assert f"checkpoint 4 in {run} is damaged or incomplete" in err[0]
+        assert f"delete {step_dir} to go back to checkpoint 2" in err[0]
+        assert time.time() - t < 30
+
+
+def test_divergence_stops_and_keeps_the_last_good_checkpoint(runs, target, tmp_path, capsys, monkeypatch):
+    """A NaN loss in the second chunk (injected into the metrics the host checks): exit code 1,
+    a message naming the iteration, and the state before that chunk saved as the checkpoint
+    (equal to the uninterrupted run's checkpoint 2), nothing after it."""
+    real_run = Stage1.run
+
+    def poisoned(self, state, n):
+        state, m = real_run(self, state, n)
+        if int(state.iteration) == 4:
+            m = dict(m, loss=m["loss"].at[1].set(jnp.nan))
+        return state, m
+
+    monkeypatch.setattr(Stage1, "run", poisoned)
+    out = str(tmp_path / "diverged")
+    code = train.main(["--config", "tiny", "--chunk", "2", "--checkpoint-every", "2", "--quiet",
+                       "--out", out, "--set"] + _overrides(6))
+    err = capsys.readouterr().err
+    assert code == 1
+    assert "loss became non-finite at iteration 3" in err and "last good checkpoint is iteration 2" in err
+    assert checkpoint.checkpoint_steps(out) == [2]
+    saved, _ = checkpoint.restore(out, target)
+    good, _ = checkpoint.restore(runs[0], target, step=2)
+    assert int(saved.iteration) == 2 and checkpoint.tree_equal(saved, good)
 
 
 def test_bad_override_is_a_clear_error(tmp_path, capsys):

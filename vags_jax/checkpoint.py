@@ -9,13 +9,22 @@ A run directory looks like::
 
 Restoring needs a *target* pytree of the same structure (built from the same config), so a
 checkpoint from a different config fails with a message that says which config differs,
-rather than an orbax shape error from deep inside.
+rather than an orbax shape error from deep inside.  A damaged run directory (config.json
+missing, not JSON or not a valid config; a checkpoint whose files are truncated or garbled) is
+named in a one-line ``CheckpointError`` saying which file and what to do.  ``read`` loads a
+checkpoint's arrays as saved, needing no target, so a caller can check a checkpoint before
+building (and compiling) the state it fits into; ``fit`` then checks and places them.
 """
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
+import logging
+import math
 import os
+import re
+import sys
 from typing import Any, Optional
 
 import jax
@@ -39,13 +48,102 @@ def save_config(run_dir: str, cfg: config_lib.Config) -> None:
 
 
 def load_config(run_dir: str) -> config_lib.Config:
+    """The run's config.json as a Config; CheckpointError naming the file when it is missing,
+    not JSON, or not a valid config."""
+    if not os.path.isdir(run_dir):
+        raise CheckpointError(f"run directory {run_dir!r} does not exist")
     path = os.path.join(run_dir, CONFIG_FILE)
     if not os.path.isfile(path):
         raise CheckpointError(
             f"no {CONFIG_FILE} in {run_dir!r}: is this a run directory written by train.py?"
         )
-    with open(path) as f:
-        return config_lib.from_dict(config_lib.Config, json.load(f))
+    try:
+        with open(path, encoding="utf-8") as f:
+            data = json.load(f)
+    except (OSError, UnicodeDecodeError, ValueError) as e:
+        raise CheckpointError(
+            f"{path} is damaged ({_first_line(e)}): it is not the JSON train.py writes; restore it "
+            f"from a copy, or start a new run in another directory"
+        ) from None
+    try:
+        return config_lib.from_dict(config_lib.Config, data)
+    except (ValueError, TypeError) as e:
+        raise CheckpointError(
+            f"{path} is not a valid config ({_first_line(e)}); was it edited, or written by another "
+            f"version? Fix that entry, or start a new run in another directory"
+        ) from None
+
+
+def _first_line(e, limit: int = 300) -> str:
+    text = str(e).strip().splitlines()
+    text = text[0] if text else type(e).__name__
+    text = text.split(" [tensorstore_spec=")[0]
+    return text if len(text) <= limit else text[:limit] + "..."
+
+
+def _short_reason(e: BaseException) -> str:
+    """Orbax / tensorstore messages nest "context: context: reason" around quoted paths: keep
+    the reason and the last file named."""
+    text = _first_line(e, limit=2000)
+    found = list(re.finditer(r'local file "([^"]+)"', text))
+    if not found:
+        return _first_line(e)
+    reason = text[found[-1].end():].lstrip(": ") or text
+    return f"{found[-1].group(1)}: {reason[:200]}"
+
+
+@contextlib.contextmanager
+def _quiet():
+    """Orbax logs (through absl) what it could not parse before raising or carrying on; every
+    such problem ends in a CheckpointError here, so its log lines would only be noise."""
+    log = logging.getLogger("absl")
+    level = log.level
+    log.setLevel(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        log.setLevel(level)
+
+
+def _closed_loop_filter(hook):
+    def unraisable(u):
+        # A failed orbax read leaves tensorstore callbacks that find their asyncio loop closed.
+        if isinstance(u.exc_value, RuntimeError) and "Event loop is closed" in str(u.exc_value):
+            return
+        hook(u)
+
+    unraisable.vags_jax_filter = True
+    return unraisable
+
+
+def _mute_closed_loop_callbacks() -> None:
+    if not getattr(sys.unraisablehook, "vags_jax_filter", False):
+        sys.unraisablehook = _closed_loop_filter(sys.unraisablehook)
+
+
+def _root_cause(e: BaseException) -> BaseException:
+    seen = set()
+    while id(e) not in seen:
+        seen.add(id(e))
+        nxt = e.__cause__ or e.__context__
+        if nxt is None:
+            break
+        e = nxt
+    return e
+
+
+def checkpoint_steps(run_dir: str) -> list[int]:
+    """Steps of the complete checkpoints in ``run_dir`` (sorted; [] when there are none).
+    Reads the directory listing only."""
+    path = os.path.join(run_dir, CHECKPOINT_DIR)
+    if not os.path.isdir(path):
+        return []
+    with _quiet():
+        mngr = _manager(run_dir, max_to_keep=None)
+        try:
+            return sorted(int(s) for s in mngr.all_steps())
+        finally:
+            mngr.close()
 
 
 def _manager(run_dir: str, max_to_keep: Optional[int] = 3) -> ocp.CheckpointManager:
@@ -99,13 +197,71 @@ def save(run_dir: str, step: int, state: Any) -> None:
     mngr.close()
 
 
+def _step_dir(run_dir: str, step: int) -> str:
+    return os.path.join(run_dir, CHECKPOINT_DIR, str(step))
+
+
+def _damaged(run_dir: str, step: int, why) -> CheckpointError:
+    steps = [s for s in checkpoint_steps(run_dir) if s != step]
+    earlier = [s for s in steps if s < step]
+    fallback = (f"delete {_step_dir(run_dir, step)} to go back to checkpoint {earlier[-1]}" if earlier
+                else "start the run again without --resume (delete the run directory first)")
+    if isinstance(why, BaseException):
+        why = _short_reason(_root_cause(why))
+    return CheckpointError(
+        f"checkpoint {step} in {run_dir} is damaged or incomplete, its files cannot be read "
+        f"({why}); {fallback}"
+    )
+
+
+_JSON_FILES = ("_CHECKPOINT_METADATA", os.path.join("default", "_METADATA"),
+               os.path.join("default", "_sharding"), os.path.join("default", "array_metadatas", "process_0"))
+
+
+def _check_files(run_dir: str, step: int) -> None:
+    """Orbax's own small JSON files of a step must parse (a truncated one is otherwise only
+    logged, or ends in a bare JSON error that names no file)."""
+    for rel in _JSON_FILES:
+        path = os.path.join(_step_dir(run_dir, step), rel)
+        if not os.path.exists(path):
+            if rel == _JSON_FILES[1]:
+                raise _damaged(run_dir, step, f"{path} is missing")
+            continue
+        try:
+            with open(path, encoding="utf-8") as f:
+                json.load(f)
+        except (OSError, UnicodeDecodeError, ValueError) as e:
+            raise _damaged(run_dir, step, f"{path} is not valid JSON: {_first_line(e)}") from None
+
+
+def _saved_tree(run_dir: str, step: int) -> dict:
+    """{part: {leaf: metadata with .shape, .dtype}} of a checkpoint, from its metadata only."""
+    _check_files(run_dir, step)
+    path = os.path.abspath(os.path.join(run_dir, CHECKPOINT_DIR))
+    try:
+        with _quiet():
+            mngr = ocp.CheckpointManager(path, item_handlers=ocp.StandardCheckpointHandler())
+            try:
+                saved = getattr(mngr.item_metadata(step), "tree", None)
+            finally:
+                mngr.close()
+    except Exception as e:  # orbax / tensorstore raise many types for unreadable files
+        _mute_closed_loop_callbacks()
+        raise _damaged(run_dir, step, e) from None
+    if not isinstance(saved, dict) or not all(isinstance(v, dict) for v in saved.values()):
+        raise _damaged(run_dir, step, "its metadata does not list named parts of arrays: not a "
+                                      "checkpoint written by vags_jax")
+    return saved
+
+
 def _open_step(run_dir: str, step: Optional[int]):
     if not os.path.isdir(run_dir):
         raise CheckpointError(f"run directory {run_dir!r} does not exist")
     if not os.path.isdir(os.path.join(run_dir, CHECKPOINT_DIR)):
         raise CheckpointError(f"no checkpoints in {run_dir!r}: train it first (python train.py --out {run_dir})")
-    mngr = _manager(run_dir, max_to_keep=None)
-    step = mngr.latest_step() if step is None else int(step)
+    with _quiet():
+        mngr = _manager(run_dir, max_to_keep=None)
+        step = mngr.latest_step() if step is None else int(step)
     if step is None or step not in mngr.all_steps():
         available = list(mngr.all_steps())
         mngr.close()
@@ -116,18 +272,13 @@ def _open_step(run_dir: str, step: Optional[int]):
     return mngr, step
 
 
-def _check_fits(run_dir: str, step: int, want: dict) -> None:
-    """Compares the wanted {part: {leaf: ShapeDtypeStruct}} with the checkpoint's metadata, so a
-    checkpoint of another config is refused before orbax starts reading (a failed orbax read
-    leaves coroutines behind that spam the interpreter's exit)."""
-    path = os.path.abspath(os.path.join(run_dir, CHECKPOINT_DIR))
-    mngr = ocp.CheckpointManager(path, item_handlers=ocp.StandardCheckpointHandler())
-    try:
-        saved = getattr(mngr.item_metadata(step), "tree", None)
-    finally:
-        mngr.close()
-    if not isinstance(saved, dict):
-        return  # no metadata to compare with: orbax will check
+def _check_fits(run_dir: str, step: int, want: dict, saved: Optional[dict] = None) -> None:
+    """Compares the wanted {part: {leaf: ShapeDtypeStruct}} with the checkpoint's metadata (or
+    the arrays ``read`` returned), so a checkpoint of another config is refused before orbax
+    starts reading (a failed orbax read leaves coroutines behind that spam the interpreter's
+    exit).  Parts of ``saved`` that are not wanted are ignored."""
+    if saved is None:
+        saved = _saved_tree(run_dir, step)
     for name, leaves in want.items():
         if name not in saved:
             raise _mismatch(run_dir, step, f"it has no part {name!r} (parts: {sorted(saved)})")
@@ -146,60 +297,106 @@ def _check_fits(run_dir: str, step: int, want: dict) -> None:
 def _mismatch(run_dir, step, e) -> CheckpointError:
     return CheckpointError(
         f"checkpoint {step} in {run_dir} does not fit this run's state: it was written with a "
-        f"different config (network, number of worlds, heightmap size or replay capacity). "
-        f"Use the run's own config.json. Orbax said: {str(e)[:300]}"
+        f"different config (network, number of worlds, heightmap size or replay capacity) than "
+        f"{os.path.join(run_dir, CONFIG_FILE)} describes ({_first_line(e)}). Use the run's own "
+        f"config.json, or start a new run"
     )
+
+
+def _abstract(tree: Any) -> dict[str, Any]:
+    """``_flatten`` of a pytree of arrays or ShapeDtypeStructs -> {index: ShapeDtypeStruct}."""
+    out = {}
+    for i, x in enumerate(jax.tree.leaves(tree)):
+        if jax.dtypes.issubdtype(getattr(x, "dtype", None), jax.dtypes.prng_key):
+            x = jax.eval_shape(jax.random.key_data, x)
+        if math.prod(np.shape(x) if not hasattr(x, "shape") else x.shape) > 0:
+            out[f"{i:05d}"] = jax.ShapeDtypeStruct(tuple(x.shape), np.dtype(x.dtype))
+    return out
+
+
+def read(run_dir: str, step: Optional[int] = None, parts: Optional[list[str]] = None):
+    """The arrays of checkpoint ``step`` (default: the latest) as saved, as host NumPy arrays:
+    ``({part: {leaf: ndarray}}, step)``; only ``parts`` when given.  Needs no target, so it can
+    run before the state is built.  CheckpointError when there is no checkpoint or its files are
+    damaged (naming the step directory and what to do)."""
+    mngr, step = _open_step(run_dir, step)
+    try:
+        saved = _saved_tree(run_dir, step)
+        names = list(saved) if parts is None else list(parts)
+        missing = [n for n in names if n not in saved]
+        if missing:
+            raise _mismatch(run_dir, step, f"it has no part {missing[0]!r} (parts: {sorted(saved)})")
+        want = {n: {k: jax.ShapeDtypeStruct(tuple(m.shape), np.dtype(m.dtype)) for k, m in saved[n].items()}
+                for n in names}
+        try:
+            with _quiet():
+                got = mngr.restore(step, args=ocp.args.PyTreeRestore(
+                    item=want, restore_args=jax.tree.map(lambda _: ocp.RestoreArgs(restore_type=np.ndarray), want),
+                    partial_restore=parts is not None))
+        except Exception as e:  # orbax / tensorstore raise many types for unreadable files
+            _mute_closed_loop_callbacks()
+            raise _damaged(run_dir, step, e) from None
+    finally:
+        mngr.close()
+    out = {}
+    for n, leaves in want.items():
+        part = got.get(n) if isinstance(got, dict) else None
+        if not isinstance(part, dict):
+            raise _damaged(run_dir, step, f"part {n!r} came back empty")
+        for k, v in leaves.items():
+            a = part.get(k)
+            if a is None or tuple(np.shape(a)) != v.shape or np.dtype(a.dtype) != v.dtype:
+                raise _damaged(run_dir, step, f"part {n!r} leaf {k} does not match its metadata")
+        out[n] = {k: np.asarray(part[k]) for k in leaves}
+    return out, step
+
+
+def fit(run_dir: str, step: int, target: Any, arrays: dict) -> Any:
+    """Places ``read``'s arrays into the structure of ``target`` (a state dataclass / dict of
+    pytrees, as for ``restore``), after checking every leaf's shape and dtype."""
+    parts = _parts(target)
+    want = {name: _abstract(p) for name, p in parts.items()}
+    _check_fits(run_dir, step, want, saved={n: {k: jax.ShapeDtypeStruct(np.shape(a), np.dtype(a.dtype))
+                                                  for k, a in leaves.items()} for n, leaves in arrays.items()})
+    restored = {name: _unflatten(p, {k: jax.numpy.asarray(v) for k, v in arrays[name].items()})
+                for name, p in parts.items()}
+    if dataclasses.is_dataclass(target):
+        return dataclasses.replace(target, **restored)
+    return restored if isinstance(target, dict) else restored["state"]
+
+
+def check_layout(run_dir: str, step: int, arrays: dict, want: dict) -> None:
+    """Checks the parts named in ``want`` ({part: pytree of arrays or ShapeDtypeStructs}) against
+    ``read``'s arrays: CheckpointError (another config) on any difference.  Lets a caller check
+    the parts it can describe without building them, e.g. the learner from the network config."""
+    _check_fits(run_dir, step, {n: _abstract(t) for n, t in want.items()},
+                saved={n: {k: jax.ShapeDtypeStruct(np.shape(a), np.dtype(a.dtype)) for k, a in leaves.items()}
+                       for n, leaves in arrays.items()})
 
 
 def restore(run_dir: str, target: Any, step: Optional[int] = None) -> tuple[Any, int]:
     """Restores into the structure of ``target``; returns ``(state, step)``.
 
-    Raises CheckpointError with what to fix when there is no checkpoint or it does not fit.
+    Raises CheckpointError with what to fix when there is no checkpoint, its files are damaged
+    or it does not fit (another config).  The metadata is compared first, so a checkpoint of
+    another config is refused before its arrays are read.
     """
     mngr, step = _open_step(run_dir, step)
-    parts = _parts(target)
-    abstract = {name: jax.tree.map(ocp.utils.to_shape_dtype_struct, _flatten(p)) for name, p in parts.items()}
-    try:
-        _check_fits(run_dir, step, abstract)
-    except CheckpointError:
-        mngr.close()
-        raise
-    try:
-        flat = mngr.restore(step, args=ocp.args.StandardRestore(abstract))
-    except (ValueError, KeyError, TypeError) as e:
-        raise _mismatch(run_dir, step, e) from e
-    finally:
-        mngr.close()
-    restored = {name: _unflatten(p, flat[name]) for name, p in parts.items()}
-    if dataclasses.is_dataclass(target):
-        return dataclasses.replace(target, **restored), step
-    return (restored if isinstance(target, dict) else restored["state"]), step
+    mngr.close()
+    want = {name: _abstract(p) for name, p in _parts(target).items()}
+    _check_fits(run_dir, step, want)
+    arrays, step = read(run_dir, step, parts=list(want))
+    return fit(run_dir, step, target, arrays), step
 
 
 def restore_part(run_dir: str, name: str, target: Any, step: Optional[int] = None) -> tuple[Any, int]:
-    """Restores only the top-level part ``name`` (e.g. "learner") into ``target``'s structure."""
+    """Restores only the top-level part ``name`` (e.g. "learner") into ``target``'s structure.
+    Errors as for ``restore``."""
     mngr, step = _open_step(run_dir, step)
-    want = {name: jax.tree.map(ocp.utils.to_shape_dtype_struct, _flatten(target))}
-    try:
-        _check_fits(run_dir, step, want)
-    except CheckpointError:
-        mngr.close()
-        raise
-    try:
-        flat = mngr.restore(step, args=ocp.args.PyTreeRestore(
-            item=want, restore_args=jax.tree.map(lambda _: ocp.RestoreArgs(restore_type=np.ndarray), want),
-            partial_restore=True))
-    except (ValueError, KeyError, TypeError, FileNotFoundError) as e:
-        raise _mismatch(run_dir, step, e) from e
-    finally:
-        mngr.close()
-    got = flat.get(name, {}) if isinstance(flat, dict) else {}
-    for k, v in want[name].items():
-        if k not in got or tuple(np.shape(got[k])) != tuple(v.shape) or np.dtype(got[k].dtype) != v.dtype:
-            found = "missing" if k not in got else f"{np.shape(got[k])} {got[k].dtype}"
-            raise _mismatch(run_dir, step, f"part {name!r} leaf {k}: saved {found}, wanted {v.shape} {v.dtype}")
-    flat = {name: got}
-    return _unflatten(target, {k: jax.numpy.asarray(v) for k, v in flat[name].items()}), step
+    mngr.close()
+    _check_fits(run_dir, step, {name: _abstract(target)})
+    arrays, step = read(run_dir, step, parts=[name])
+    return _unflatten(target, {k: jax.numpy.asarray(v) for k, v in arrays[name].items()}), step
 
 
 def tree_equal(a: Any, b: Any) -> bool:

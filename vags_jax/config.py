@@ -17,7 +17,12 @@ Conventions shared by all modules (read these before writing code against them):
   axis in metres (as RGB-D sensors report), 0 where nothing was hit or the pixel is missing.
 
 Every config validates itself in ``__post_init__`` and raises ``ValueError`` naming the field
-and what to change.
+and what to change.  First every field is type-checked against its annotation
+(``@checked``, ``vags_jax.validation``: ints are ints and never bools or floats, even
+``1e3``; floats are finite; tuples have their length; ``Optional`` takes ``None``), so a field
+added later is checked with no extra code; then each class checks its ranges, with upper
+bounds on sizes where memory or int32 indices bite (``MAX_*`` below).  ``replace`` (and so
+``--set``) names a bad value by its dotted key, e.g. ``stage1.n_worlds``.
 """
 from __future__ import annotations
 
@@ -26,16 +31,44 @@ import math
 from dataclasses import dataclass, field
 from typing import Optional
 
+from vags_jax.validation import check_value, checked
+
 
 def _check(cond: bool, msg: str) -> None:
     if not cond:
         raise ValueError(msg)
 
 
+def _within(label: str, value, lo, hi, unit: str = "", lo_open: bool = False, hi_open: bool = False) -> None:
+    """Range check with a message like ``Scene.friction must be in (0, 10], got -1``."""
+    ok_lo = value > lo if lo_open else value >= lo
+    ok_hi = value < hi if hi_open else value <= hi
+    _check(ok_lo and ok_hi,
+           f"{label} must be in {'(' if lo_open else '['}{_num(lo)}, {_num(hi)}{')' if hi_open else ']'}"
+           f"{' ' + unit if unit else ''}, got {_num(value)}")
+
+
+def _num(v) -> str:
+    return f"{v:,}" if isinstance(v, int) else f"{v:g}"
+
+
+# Upper bounds on sizes.  A heightmap cell costs 10 bytes per stored transition (uint8 colour and
+# float16 height, before and after the grasp), so the replay buffer's memory is
+# capacity * 10 * heightmap_px**2 bytes; the largest accelerator the project targets (H200)
+# holds 141 GB.  Q maps of all worlds are n_worlds * n_rotations * heightmap_px**2 values of at
+# least 2 bytes (bfloat16).
+MAX_HEIGHTMAP_PX = 1024
+MAX_IMAGE_SIDE = 4096  # camera width / height, pixels
+MAX_WORLDS = 1 << 20
+MAX_DEVICE_BYTES = 128 * 2**30  # replay buffer, and Q maps of all worlds
+REPLAY_BYTES_PER_CELL = 10
+
+
 # ----------------------------------------------------------------------------- world
 
 
 @dataclass(frozen=True)
+@checked
 class Workspace:
     """The square table region the robot works in and its heightmap grid."""
 
@@ -46,10 +79,15 @@ class Workspace:
 
     def __post_init__(self):
         _check(self.size > 0, f"Workspace.size must be > 0 metres, got {self.size}")
+        _within("Workspace.size", self.size, 0, 5.0, "metres", lo_open=True)
         _check(
             isinstance(self.heightmap_px, int) and self.heightmap_px >= 8,
             f"Workspace.heightmap_px must be an int >= 8, got {self.heightmap_px!r}",
         )
+        _within("Workspace.heightmap_px", self.heightmap_px, 8, MAX_HEIGHTMAP_PX)
+        for v in self.center:
+            _within("Workspace.center", v, -10.0, 10.0, "metres")
+        _within("Workspace.table_z", self.table_z, -10.0, 10.0, "metres")
 
     @property
     def pixel_size(self) -> float:
@@ -122,6 +160,7 @@ def _check_range(name: str, r, lo_bound: float, hi_bound: float) -> None:
 
 
 @dataclass(frozen=True)
+@checked
 class Scene:
     """Objects on the table.  ``max_objects`` is N, the number of object slots per world.
 
@@ -177,6 +216,13 @@ class Scene:
             f"{self.max_objects}; raise copies_per_shape or lower max_objects",
         )
         _check(self.settle_time >= 0, "Scene.settle_time must be >= 0 seconds")
+        _within("Scene.max_objects", self.max_objects, 1, 100)
+        _within("Scene.copies_per_shape", self.copies_per_shape, 1, 100)
+        _within("Scene.settle_time", self.settle_time, 0, 10.0, "seconds")
+        _within("Scene.drop_height", self.drop_height, 0, 1.0, "metres", lo_open=True)
+        _within("Scene.drop_margin", self.drop_margin, 0, 1.0, "metres")
+        _within("Scene.friction", self.friction, 0, 10.0, lo_open=True)
+        _within("Scene.object_density", self.object_density, 0, 1e5, "kg/m^3", lo_open=True)
         _check_range("Scene.box_side", self.box_side, 0.005, 0.08)
         _check_range("Scene.capsule_radius", self.capsule_radius, 0.005, 0.04)
         _check_range("Scene.capsule_length", self.capsule_length, 0.0, 0.15)
@@ -191,8 +237,6 @@ class Scene:
                "or use scene.placement=scatter")
         _check(isinstance(self.pile_radius, (int, float)) and 0.0 <= self.pile_radius <= 0.2,
                f"Scene.pile_radius must be in [0, 0.2] m, got {self.pile_radius!r}")
-        _check(self.friction > 0, f"Scene.friction must be > 0, got {self.friction}")
-        _check(self.object_density > 0, f"Scene.object_density must be > 0, got {self.object_density}")
 
     @property
     def pool_size(self) -> int:
@@ -200,6 +244,7 @@ class Scene:
 
 
 @dataclass(frozen=True)
+@checked
 class Sim:
     """Physics settings.  ``impl`` is MJX's backend: "jax" (any device) or "warp" (GPU)."""
 
@@ -275,9 +320,17 @@ class Sim:
         _check(isinstance(self.ccd_iterations, int) and not isinstance(self.ccd_iterations, bool)
                and self.ccd_iterations >= 1,
                f"Sim.ccd_iterations must be an int >= 1, got {self.ccd_iterations!r}")
+        for name in ("iterations", "ls_iterations", "ccd_iterations"):
+            _within(f"Sim.{name}", getattr(self, name), 1, 1000)
+        _within("Sim.impratio", self.impratio, 0, 1000.0, lo_open=True)
+        _within("Sim.sleep_tolerance", self.sleep_tolerance, 0, 1.0, lo_open=True)
+        for name, most in (("naconmax", 2**31 - 1), ("njmax", 10**6), ("contacts_per_world", 10**5)):
+            if getattr(self, name) is not None:
+                _within(f"Sim.{name}", getattr(self, name), 1, most)
 
 
 @dataclass(frozen=True)
+@checked
 class Grasp:
     """Top-down parallel-jaw grasp primitive (floating RG2-like gripper)."""
 
@@ -322,6 +375,20 @@ class Grasp:
         for name in ("t_settle", "t_descend", "t_close", "t_lift", "t_post"):
             _check(getattr(self, name) > 0, f"Grasp.{name} must be > 0 seconds")
         _check(0.0 <= self.lift_hold < 1.0, f"Grasp.lift_hold must be in [0, 1), got {self.lift_hold}")
+        _within("Grasp.n_rotations", self.n_rotations, 1, 64)
+        for name in ("t_settle", "t_descend", "t_close", "t_lift", "t_post"):
+            _within(f"Grasp.{name}", getattr(self, name), 0, 10.0, "seconds", lo_open=True)
+        _within("Grasp.finger_stroke", self.finger_stroke, 0, 0.5, "metres", lo_open=True)
+        _within("Grasp.approach_height", self.approach_height, 0, 1.0, "metres", lo_open=True)
+        _within("Grasp.lift_height", self.lift_height, 0, 1.0, "metres", lo_open=True)
+        _within("Grasp.depth_below_surface", self.depth_below_surface, 0, 0.2, "metres")
+        _within("Grasp.min_height_above_table", self.min_height_above_table, 0, 0.2, "metres")
+        _within("Grasp.grip_force", self.grip_force, 0, 1000.0, "N", lo_open=True)
+        _within("Grasp.closed_gap", self.closed_gap, 0, self.finger_stroke, "metres (finger_stroke)",
+                hi_open=True)
+        _check(0 < self.success_lift < self.lift_height,
+               f"Grasp.success_lift must be in (0, lift_height = {self.lift_height}) metres: a grasp "
+               f"succeeds when the object rises that far, got {self.success_lift}")
         c = self.descent_clearance
         _check(
             c is None or (isinstance(c, (int, float)) and not isinstance(c, bool)
@@ -336,6 +403,7 @@ class Grasp:
 
 
 @dataclass(frozen=True)
+@checked
 class DepthNoise:
     """Depth model of a structured-light / active-stereo RGB-D sensor (on by default).
 
@@ -381,8 +449,15 @@ class DepthNoise:
             _check(0.0 <= v <= 1.0, f"DepthNoise.{name} must be a probability in [0, 1], got {v}")
         _check(self.baseline > 0, f"DepthNoise.baseline must be > 0 m, got {self.baseline}")
 
+    def __post_init__(self):
+        _within("DepthNoise.sigma_base", self.sigma_base, 0, 0.1, "metres")
+        _within("DepthNoise.sigma_quadratic", self.sigma_quadratic, 0, 0.1)
+        _within("DepthNoise.grazing_dropout_deg", self.grazing_dropout_deg, 0, 90.0, "degrees", lo_open=True)
+        _within("DepthNoise.dropout_prob", self.dropout_prob, 0, 1.0)
+
 
 @dataclass(frozen=True)
+@checked
 class Camera:
     """Pinhole eye-in-hand RGB-D camera."""
 
@@ -425,6 +500,23 @@ class Camera:
         _check(self.render_batch <= most,
                f"Camera.render_batch = {self.render_batch} images of {self.width} x {self.height} "
                f"overflow the int32 pixel indices of the heightmap scatter; use at most {most}")
+        _within("Camera.width", self.width, 8, MAX_IMAGE_SIDE, "pixels")
+        _within("Camera.height", self.height, 8, MAX_IMAGE_SIDE, "pixels")
+        _within("Camera.fx", self.fx, 0, 1e5, "pixels", lo_open=True)
+        _within("Camera.fy", self.fy, 0, 1e5, "pixels", lo_open=True)
+        if self.cx is not None:
+            _within("Camera.cx", self.cx, 0, self.width, "pixels (0..width)")
+        if self.cy is not None:
+            _within("Camera.cy", self.cy, 0, self.height, "pixels (0..height)")
+        _within("Camera.far", self.far, 0, 100.0, "metres", lo_open=True)
+        _within("Camera.viewpoint_height", self.viewpoint_height, self.near, self.far, "metres (near..far)",
+                lo_open=True, hi_open=True)
+        for name in ("global_position", "global_target"):
+            for v in getattr(self, name):
+                _within(f"Camera.{name}", v, -10.0, 10.0, "metres")
+        _check(math.dist(self.global_position, self.global_target) > 1e-3,
+               f"Camera.global_position {self.global_position} and global_target {self.global_target} "
+               f"must differ: the camera looks from one at the other")
 
     @property
     def principal_point(self) -> tuple[float, float]:
@@ -437,6 +529,7 @@ class Camera:
 
 
 @dataclass(frozen=True)
+@checked
 class Net:
     """Q-network architecture."""
 
@@ -452,9 +545,13 @@ class Net:
             f"Net.trunk must be 'densenet121' or 'small', got {self.trunk!r}",
         )
         _check(self.dtype in ("float32", "bfloat16"), f"Net.dtype must be float32 or bfloat16, got {self.dtype!r}")
+        _within("Net.head_channels", self.head_channels, 1, 1024)
+        _within("Net.small_width", self.small_width, 1, 1024)
+        _within("Net.n_rotations", self.n_rotations, 1, 64)
 
 
 @dataclass(frozen=True)
+@checked
 class DQN:
     gamma: float = 0.5
     huber_delta: float = 1.0
@@ -473,9 +570,16 @@ class DQN:
         _check(self.optimizer in ("sgd", "adam"), f"DQN.optimizer must be 'sgd' or 'adam', got {self.optimizer!r}")
         _check(self.batch_size >= 1, f"DQN.batch_size must be >= 1, got {self.batch_size}")
         _check(self.target_update_period >= 1, "DQN.target_update_period must be >= 1")
+        _within("DQN.learning_rate", self.learning_rate, 0, 1.0, lo_open=True)
+        _within("DQN.huber_delta", self.huber_delta, 0, 1e3, lo_open=True)
+        _within("DQN.momentum", self.momentum, 0, 1.0, hi_open=True)
+        _within("DQN.weight_decay", self.weight_decay, 0, 1.0, hi_open=True)
+        _within("DQN.batch_size", self.batch_size, 1, 4096)
+        _within("DQN.target_update_period", self.target_update_period, 1, 10**7)
 
 
 @dataclass(frozen=True)
+@checked
 class Replay:
     capacity: int = 10_000
     alpha: float = 0.6
@@ -486,9 +590,12 @@ class Replay:
         _check(self.capacity >= 1, f"Replay.capacity must be >= 1, got {self.capacity}")
         _check(0.0 <= self.alpha <= 1.0, f"Replay.alpha must be in [0, 1], got {self.alpha}")
         _check(0.0 <= self.beta <= 1.0, f"Replay.beta must be in [0, 1], got {self.beta}")
+        _within("Replay.capacity", self.capacity, 1, 2**31 - 1)
+        _within("Replay.priority_eps", self.priority_eps, 0, 1.0, lo_open=True)
 
 
 @dataclass(frozen=True)
+@checked
 class Exploration:
     """DAES: epsilon-greedy whose random pixel is drawn among object pixels."""
 
@@ -502,9 +609,11 @@ class Exploration:
         _check(0.0 <= self.eps_end <= self.eps_start <= 1.0,
                f"Exploration needs 0 <= eps_end <= eps_start <= 1, got {self.eps_end}, {self.eps_start}")
         _check(0.0 < self.eps_decay <= 1.0, f"Exploration.eps_decay must be in (0, 1], got {self.eps_decay}")
+        _within("Exploration.height_threshold", self.height_threshold, 0, 1.0, "metres", hi_open=True)
 
 
 @dataclass(frozen=True)
+@checked
 class Stage:
     """One training stage (paper 3.2)."""
 
@@ -522,9 +631,18 @@ class Stage:
         _check(self.iterations >= 1, f"Stage.iterations must be >= 1, got {self.iterations}")
         _check(1 <= self.min_objects <= self.max_objects,
                f"Stage needs 1 <= min_objects <= max_objects, got {self.min_objects}..{self.max_objects}")
+        _check(bool(self.name.strip()), "Stage.name must not be empty")
+        _within("Stage.n_worlds", self.n_worlds, 1, MAX_WORLDS)
+        _within("Stage.max_attempts_extra", self.max_attempts_extra, 0, 1000)
+        _within("Stage.updates_per_iteration", self.updates_per_iteration, 1, 1024)
+        _within("Stage.learning_starts", self.learning_starts, 0, 2**31 - 1)
+        _check(self.n_worlds * self.iterations < 2**31,
+               f"Stage: n_worlds * iterations = {self.n_worlds * self.iterations:,} grasp attempts "
+               f"overflow the int32 attempt counter; keep it below 2**31 (lower iterations)")
 
 
 @dataclass(frozen=True)
+@checked
 class Config:
     """Everything, for one run."""
 
@@ -548,10 +666,40 @@ class Config:
         )
         _check(self.net.n_rotations == self.grasp.n_rotations,
                "net.n_rotations must equal grasp.n_rotations")
+        _within("seed", self.seed, 0, 2**32 - 1)
+        _check(self.scene.drop_margin < self.workspace.size / 2,
+               f"scene.drop_margin ({self.scene.drop_margin} m) must be less than half of "
+               f"workspace.size ({self.workspace.size} m): objects are dropped inside that margin")
+        _check(self.camera.global_position[2] > self.workspace.table_z,
+               f"camera.global_position {self.camera.global_position} must be above the table "
+               f"(z > workspace.table_z = {self.workspace.table_z})")
+        _check(self.stage1.learning_starts <= self.replay.capacity,
+               f"stage1.learning_starts ({self.stage1.learning_starts}) exceeds replay.capacity "
+               f"({self.replay.capacity}): learning would never start")
+        px = self.workspace.heightmap_px
+        replay_bytes = self.replay.capacity * REPLAY_BYTES_PER_CELL * px * px
+        _check(replay_bytes <= MAX_DEVICE_BYTES,
+               f"replay.capacity = {self.replay.capacity:,} transitions of {px} x {px} heightmaps need "
+               f"{replay_bytes / 2**30:,.0f} GiB ({REPLAY_BYTES_PER_CELL} bytes per cell), more than "
+               f"{MAX_DEVICE_BYTES // 2**30} GiB; lower replay.capacity (at most "
+               f"{MAX_DEVICE_BYTES // (REPLAY_BYTES_PER_CELL * px * px):,}) or workspace.heightmap_px")
+        q_bytes = 2 * self.stage1.n_worlds * self.net.n_rotations * px * px
+        _check(q_bytes <= MAX_DEVICE_BYTES,
+               f"stage1.n_worlds = {self.stage1.n_worlds:,} worlds need Q maps of "
+               f"{self.net.n_rotations} x {px} x {px} each, {q_bytes / 2**30:,.0f} GiB at 2 bytes per "
+               f"value, more than {MAX_DEVICE_BYTES // 2**30} GiB; lower stage1.n_worlds or "
+               f"workspace.heightmap_px")
 
 
 def replace(cfg, **changes):
-    """dataclasses.replace that also accepts dotted keys, e.g. replace(cfg, **{"dqn.gamma": 0.9})."""
+    """dataclasses.replace that also accepts dotted keys, e.g. replace(cfg, **{"dqn.gamma": 0.9}).
+
+    Each value is type-checked against its field's annotation first (``vags_jax.validation``),
+    so an error names the dotted key as given (``stage1.n_worlds must be an int, got True``)."""
+    return _replace(cfg, changes, "")
+
+
+def _replace(cfg, changes: dict, prefix: str):
     nested: dict[str, dict] = {}
     flat = {}
     for k, v in changes.items():
@@ -560,17 +708,28 @@ def replace(cfg, **changes):
             nested.setdefault(head, {})[rest] = v
         else:
             flat[k] = v
-    for head, sub in nested.items():
-        if not hasattr(cfg, head):
-            raise ValueError(f"unknown config section {head!r} in {type(cfg).__name__}")
-        flat[head] = replace(getattr(cfg, head), **sub)
     names = {f.name for f in dataclasses.fields(cfg)}
-    for k in flat:
+    for head, sub in nested.items():
+        if head not in names or not dataclasses.is_dataclass(getattr(cfg, head)):
+            sections = sorted(f.name for f in dataclasses.fields(cfg)
+                              if dataclasses.is_dataclass(getattr(cfg, f.name)))
+            raise ValueError(f"unknown config section {prefix + head!r} in {type(cfg).__name__}; "
+                             f"sections: {sections}")
+        flat[head] = _replace(getattr(cfg, head), sub, f"{prefix}{head}.")
+    for k in list(flat):
         if k not in names:
             raise ValueError(
-                f"unknown config field {k!r} for {type(cfg).__name__}; valid fields: {sorted(names)}"
+                f"unknown config field {prefix + k!r} for {type(cfg).__name__}; valid fields: {sorted(names)}"
             )
-    return dataclasses.replace(cfg, **flat)
+        if k not in nested:
+            flat[k] = check_value(type(cfg), k, flat[k], label=prefix + k)
+    try:
+        return dataclasses.replace(cfg, **flat)
+    except ValueError as e:  # "Stage.n_worlds must ..." -> "stage1.n_worlds must ..."
+        msg, cls = str(e), type(cfg).__name__ + "."
+        if prefix and msg.startswith(cls):
+            raise ValueError(prefix + msg[len(cls):]) from None
+        raise
 
 
 # ----------------------------------------------------------------------------- (de)serialisation
@@ -613,7 +772,10 @@ def _has_all_defaults(cls) -> bool:
 def parse_overrides(items: list[str]) -> dict:
     """Parse ``["dqn.gamma=0.9", "net.trunk=small"]`` into ``{"dqn.gamma": 0.9, ...}``.
 
-    Values are read as JSON when possible (numbers, true/false, lists), else as strings.
+    Values are read as JSON when possible (numbers, true/false, null, lists), else as strings;
+    `replace` then checks each against its field's type (``vags_jax.validation``: ``1e3`` is a
+    float, so an int field refuses it and says to write ``1000``; ``Infinity`` / ``NaN`` are
+    refused for number fields).
     """
     import json
 
@@ -628,7 +790,10 @@ def parse_overrides(items: list[str]) -> dict:
             value = raw
         if isinstance(value, list):
             value = tuple(value)
-        out[key.strip()] = value
+        key = key.strip()
+        if key in out:
+            raise ValueError(f"override {key!r} is given twice ({out[key]!r} and {value!r}); keep one")
+        out[key] = value
     return out
 
 

@@ -353,7 +353,7 @@ def load_gdnet(run_dir: str, step: Optional[int] = None):
     net = make_qnet(cfg.net, "gdnet")
     target = jax.eval_shape(lambda k: dqn.create_train_state(init_qnet(k, net, H, H), cfg.dqn),
                             jax.random.PRNGKey(0))
-    target = jax.tree.map(lambda x: jnp.zeros(x.shape, x.dtype), target)
+    target = jax.tree.map(lambda x: np.zeros(x.shape, x.dtype), target)  # host zeros: nothing compiled
     learner, step = checkpoint.restore_part(run_dir, "learner", target, step)
     return cfg, {"params": learner.params, "batch_stats": learner.batch_stats}, step
 

@@ -13,6 +13,7 @@ takes one real camera frame (numpy), validates it and returns numpy heightmaps.
 from __future__ import annotations
 
 import functools
+import warnings
 
 import jax
 import jax.numpy as jnp
@@ -100,6 +101,81 @@ def heightmaps(depth, rgb, cam_pose, cam_cfg: Camera, ws_cfg: Workspace):
     return gather_at_source(jnp.asarray(rgb, jnp.uint8), source), height
 
 
+class FrameWarning(UserWarning):
+    """A real frame that is valid but unlikely to give a useful heightmap (too little valid
+    depth, nothing inside the workspace, points below the table); the message names the likely
+    mistake.  Turn into errors with ``warnings.simplefilter("error", FrameWarning)``."""
+
+
+# Real-frame plausibility limits (heightmap_from_frame).
+MAX_POSE_TRANSLATION = 10.0  # m from the robot origin; more suggests millimetres
+MIN_VALID_DEPTH = 0.01  # share of pixels with depth > 0
+BELOW_TABLE_TOLERANCE = 0.02  # m; points inside the workspace further below the table are wrong
+MAX_BELOW_TABLE = 0.25  # share of in-workspace points allowed that far below the table
+
+
+def check_frame_pose(cam_pose: np.ndarray, ws_cfg: Workspace) -> None:
+    """Pose plausibility for a real frame: metres, above the table, looking down.  ``cam_pose``
+    (4, 4) is an already-checked rigid transform.  Raises ValueError naming the likely mistake."""
+    t = cam_pose[:3, 3].astype(np.float64)
+    axis = cam_pose[:3, 2].astype(np.float64)  # the optical axis (camera +z) in the world
+    dist = float(np.linalg.norm(t))
+    if dist > MAX_POSE_TRANSLATION:
+        raise ValueError(
+            f"cam_pose puts the camera {dist:.4g} m from the robot origin (translation "
+            f"{np.round(t, 3).tolist()}), more than {MAX_POSE_TRANSLATION:g} m: the translation looks "
+            f"like millimetres; divide cam_pose[:3, 3] by 1000 to give metres"
+        )
+    if t[2] <= ws_cfg.table_z:
+        raise ValueError(
+            f"cam_pose puts the camera at z = {t[2]:.4g} m, at or below the table top "
+            f"(workspace.table_z = {ws_cfg.table_z:g}): it cannot see the table. Is it the world-to-camera "
+            f"transform (extrinsics)? Pass its inverse, np.linalg.inv(cam_pose), the camera-to-world pose"
+        )
+    if axis[2] >= 0:
+        raise ValueError(
+            f"cam_pose's optical axis (camera +z in the world, cam_pose[:3, 2] = "
+            f"{np.round(axis, 3).tolist()}) does not point down at the table (its z-component must be "
+            f"< 0). Is it the world-to-camera transform (pass np.linalg.inv(cam_pose)), or a pose in "
+            f"the OpenGL convention (camera looking along -z; convert with cam_pose @ diag(1, -1, -1, 1))?"
+        )
+
+
+def check_frame_points(depth: np.ndarray, cam_pose: np.ndarray, cam_cfg: Camera, ws_cfg: Workspace) -> None:
+    """Warns (``FrameWarning``) when a real frame has too little valid depth, no point inside
+    the workspace, or many workspace points below the table.  depth (h, w) metres, 0 = missing."""
+    valid = depth > 0
+    share = float(valid.mean())
+    if share < MIN_VALID_DEPTH:
+        warnings.warn(FrameWarning(
+            f"only {100 * share:.2g} % of the depth pixels are valid (> 0 and finite), fewer than "
+            f"{100 * MIN_VALID_DEPTH:g} %: the heightmap will be (nearly) empty. Check the depth stream "
+            f"(is the sensor in range, the image registered, the right channel passed?)"), stacklevel=3)
+        return
+    v, u = np.nonzero(valid)
+    z = depth[v, u].astype(np.float64)
+    cx, cy = cam_cfg.principal_point
+    pts = np.stack([(u - cx) / cam_cfg.fx * z, (v - cy) / cam_cfg.fy * z, z], axis=-1)
+    world = pts @ cam_pose[:3, :3].astype(np.float64).T + cam_pose[:3, 3].astype(np.float64)
+    xmin, xmax, ymin, ymax = ws_cfg.bounds
+    inside = (world[:, 0] >= xmin) & (world[:, 0] < xmax) & (world[:, 1] >= ymin) & (world[:, 1] < ymax)
+    if not inside.any():
+        c = world.mean(axis=0)
+        warnings.warn(FrameWarning(
+            f"none of the {len(world)} valid depth points falls inside the workspace square "
+            f"x in [{xmin:.3g}, {xmax:.3g}), y in [{ymin:.3g}, {ymax:.3g}) (their mean is at "
+            f"{np.round(c, 3).tolist()}): the heightmap will be empty. Check cam_pose (camera-to-world, "
+            f"metres, in the robot frame) and workspace.center / workspace.size"), stacklevel=3)
+        return
+    below = float((world[inside, 2] < ws_cfg.table_z - BELOW_TABLE_TOLERANCE).mean())
+    if below > MAX_BELOW_TABLE:
+        warnings.warn(FrameWarning(
+            f"{100 * below:.0f} % of the depth points inside the workspace lie more than "
+            f"{100 * BELOW_TABLE_TOLERANCE:g} cm below the table top (workspace.table_z = "
+            f"{ws_cfg.table_z:g}): the pose is probably wrong (world-to-camera given instead of "
+            f"camera-to-world? another camera convention?), or workspace.table_z is"), stacklevel=3)
+
+
 def heightmap_from_frame(depth, rgb, cam_pose, cam_cfg: Camera, ws_cfg: Workspace):
     """Heightmaps of ONE real RGB-D frame, with input validation (numpy in, numpy out).
 
@@ -111,8 +187,14 @@ def heightmap_from_frame(depth, rgb, cam_pose, cam_cfg: Camera, ws_cfg: Workspac
     Returns:
       color_hm (H, W, 3) uint8 and height_hm (H, W) float32.
     Raises:
-      ValueError with a hint for wrong shapes, dtypes, millimetre depth, negative depth or a
-      pose that is not a rigid transform.
+      ValueError with a hint for wrong shapes, dtypes, millimetre depth, negative depth, a pose
+      that is not a rigid transform, a pose in millimetres (more than 10 m from the origin), a
+      camera at or below the table or one not looking down (a world-to-camera pose, or the
+      OpenGL convention).
+    Warns:
+      FrameWarning when under 1 % of the pixels have depth, no point falls inside the
+      workspace, or over a quarter of the workspace points lie 2 cm or more below the table.
+      All checks run before anything is compiled.
     """
     depth = np.asarray(depth)
     rgb = np.asarray(rgb)
@@ -140,6 +222,8 @@ def heightmap_from_frame(depth, rgb, cam_pose, cam_cfg: Camera, ws_cfg: Workspac
             f"rgb must be uint8 in 0..255, got dtype {rgb.dtype}; for floats in [0, 1] pass "
             "(rgb * 255).round().astype(np.uint8)"
         )
+    if not (np.issubdtype(cam_pose.dtype, np.floating) or np.issubdtype(cam_pose.dtype, np.integer)):
+        raise ValueError(f"cam_pose must be a numeric (4, 4) camera-to-world transform, got dtype {cam_pose.dtype}")
     if cam_pose.shape != (4, 4) or not np.all(np.isfinite(cam_pose)):
         raise ValueError(f"cam_pose must be a finite (4, 4) camera-to-world transform, got shape {cam_pose.shape}")
     rot = cam_pose[:3, :3].astype(np.float64)
@@ -147,6 +231,7 @@ def heightmap_from_frame(depth, rgb, cam_pose, cam_cfg: Camera, ws_cfg: Workspac
         cam_pose[3], [0, 0, 0, 1], atol=1e-6
     ):
         raise ValueError("cam_pose must be a rigid transform: orthonormal rotation (det +1), last row [0, 0, 0, 1]")
+    check_frame_pose(cam_pose, ws_cfg)
     depth = np.where(np.isfinite(depth), depth, 0.0).astype(np.float32)
     if np.any(depth < 0):
         raise ValueError(f"depth has negative values (min {depth.min():.4g}); missing pixels must be 0 or NaN")
@@ -155,5 +240,6 @@ def heightmap_from_frame(depth, rgb, cam_pose, cam_cfg: Camera, ws_cfg: Workspac
             f"depth values reach {depth.max():.4g}, more than 10 m: the image looks like "
             "millimetres; divide by 1000 to give metres"
         )
+    check_frame_points(depth, cam_pose, cam_cfg, ws_cfg)
     color, height = heightmaps(depth[None], rgb[None], cam_pose[None].astype(np.float32), cam_cfg, ws_cfg)
     return np.asarray(color[0]), np.asarray(height[0])

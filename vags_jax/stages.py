@@ -188,6 +188,29 @@ class Stage1:
         return self._run_jit(state, n)
 
 
+def checkpoint_layout(cfg: Config) -> dict:
+    """Shapes and dtypes (pytrees of ``jax.ShapeDtypeStruct``) of the ``Stage1State`` parts
+    that follow from the config alone: ``learner``, ``replay``, ``key``, ``iteration`` and
+    ``attempts`` (``env`` needs the simulator).  Traced with ``jax.eval_shape``: nothing is
+    compiled or allocated, so a checkpoint can be checked against a config before any
+    compiling (train.py --resume)."""
+    H = cfg.workspace.heightmap_px
+    net = make_qnet(cfg.net, "gdnet")
+    learner = jax.eval_shape(lambda k: dqn.create_train_state(init_qnet(k, net, H, H), cfg.dqn),
+                             jax.random.PRNGKey(0))
+
+    def buffer():
+        color, height = jnp.zeros((H, H, 3), jnp.uint8), jnp.zeros((H, H), jnp.float32)
+        example = replay.make_grasp_transition(color, height, jnp.zeros((3,), jnp.int32), 0.0,
+                                               color, height, False)
+        return replay.init(cfg.replay.capacity, example)
+
+    scalar = jax.ShapeDtypeStruct((), jnp.int32)
+    return {"learner": learner, "replay": jax.eval_shape(buffer),
+            "key": jax.eval_shape(lambda: jax.random.split(jax.random.PRNGKey(0))[0]),
+            "iteration": scalar, "attempts": scalar}
+
+
 def make_stage1(cfg: Config, env: Optional[VagsEnv] = None) -> Stage1:
     return Stage1(cfg, env)
 

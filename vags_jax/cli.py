@@ -1,0 +1,86 @@
+"""Command-line plumbing shared by train.py and eval.py: one-line errors, range-checked flags.
+
+Every bad flag ends the program with exit code 2 and ONE line on stderr
+(``train.py: error: argument --chunk: must be an int >= 1, got '-5'``), before anything is
+compiled or written.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+from typing import Optional
+
+
+class ArgumentParser(argparse.ArgumentParser):
+    """argparse, but an error is one line (no usage block): ``prog: error: ...``, exit code 2."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message} (see --help)\n")
+
+
+def int_in(lo: int, hi: Optional[int] = None):
+    """argparse type: an int in [lo, hi]."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be an int, got {text!r}") from None
+        if value < lo or (hi is not None and value > hi):
+            raise argparse.ArgumentTypeError(
+                f"must be an int >= {lo}" + (f" and <= {hi:,}" if hi is not None else "") + f", got {text!r}")
+        return value
+
+    parse.__name__ = "int"
+    return parse
+
+
+def positive_float(hi: Optional[float] = None):
+    """argparse type: a finite float in (0, hi]."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
+        if not math.isfinite(value) or value <= 0 or (hi is not None and value > hi):
+            raise argparse.ArgumentTypeError(
+                "must be a finite number > 0" + (f" and <= {hi:g}" if hi is not None else "") + f", got {text!r}")
+        return value
+
+    parse.__name__ = "float"
+    return parse
+
+
+def fail(prog: str, message) -> int:
+    """Prints ``prog: error: message`` (one line) to stderr; returns exit code 2."""
+    text = " ".join(str(message).split("\n"))
+    print(f"{prog}: error: {text}", file=sys.stderr)
+    return 2
+
+
+def first_line(e, limit: int = 200) -> str:
+    lines = str(e).strip().splitlines()
+    text = lines[0] if lines else type(e).__name__
+    return text if len(text) <= limit else text[:limit] + "..."
+
+
+def check_writable_file(path: str, flag: str) -> None:
+    """A file path we will write: not a directory, its directory creatable and writable."""
+    if not path:
+        raise ValueError(f"{flag} must not be empty")
+    if os.path.isdir(path):
+        raise ValueError(f"{flag} {path!r} is a directory; give a file name, e.g. {os.path.join(path, 'report.json')}")
+    _check_parent_writable(path, flag)
+
+
+def _check_parent_writable(path: str, flag: str) -> None:
+    parent = os.path.dirname(os.path.abspath(path))
+    while not os.path.exists(parent):  # the nearest existing ancestor must be a writable directory
+        parent = os.path.dirname(parent)
+    if not os.path.isdir(parent):
+        raise ValueError(f"{flag} {path!r}: {parent!r} is a file, not a directory")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise ValueError(f"{flag} {path!r}: no permission to write in {parent!r}")
