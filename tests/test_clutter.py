@@ -124,7 +124,7 @@ def test_unseen_scene_builds_and_default_pool_is_the_training_set():
     ("scene.capsule_length", (0.01, -0.01), "min > max"),
     ("scene.sphere_radius", (-0.01, 0.02), "positive"),
     ("scene.box_side", (0.02, 0.2), "gripper"),
-    ("scene.box_side", (0.02,), "range"),
+    ("scene.box_side", (0.02,), "2 items"),
     ("scene.placement", "heap", "placement"),
     ("scene.pile_radius", -0.1, "pile_radius"),
     ("scene.colour_jitter", 0.9, "colour_jitter"),

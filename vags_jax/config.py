@@ -448,8 +448,6 @@ class DepthNoise:
             v = getattr(self, name)
             _check(0.0 <= v <= 1.0, f"DepthNoise.{name} must be a probability in [0, 1], got {v}")
         _check(self.baseline > 0, f"DepthNoise.baseline must be > 0 m, got {self.baseline}")
-
-    def __post_init__(self):
         _within("DepthNoise.sigma_base", self.sigma_base, 0, 0.1, "metres")
         _within("DepthNoise.sigma_quadratic", self.sigma_quadratic, 0, 0.1)
         _within("DepthNoise.grazing_dropout_deg", self.grazing_dropout_deg, 0, 90.0, "degrees", lo_open=True)
