@@ -105,18 +105,25 @@ def test_resume_with_iterations_already_done_changes_nothing(runs, capsys):
     assert _files(runs[0]) == before
 
 
+def _cut(paths):
+    for p in paths:
+        with open(p, "r+b") as f:
+            f.truncate(os.path.getsize(p) // 2)
+
+
 def test_damaged_checkpoint_is_named_before_compiling(runs, tmp_path, capsys):
-    """The largest file of the latest checkpoint cut in half (a partial copy): train.py --resume
-    and eval.py name the step directory and the fallback, in one line, in seconds."""
+    """The latest checkpoint's largest file cut in half (a partial copy): train.py --resume,
+    which reads it all, names the step directory and the fallback, in one line, in seconds.
+    eval.py reads only the learner, which may lie in other files: with every data file cut it
+    says the same."""
     run = str(tmp_path / "run")
     shutil.copytree(runs[0], run)
     step_dir = os.path.join(run, "checkpoints", "4")
     files = [os.path.join(r, f) for r, _, fs in os.walk(step_dir) for f in fs]
-    biggest = max(files, key=os.path.getsize)
-    with open(biggest, "r+b") as f:
-        f.truncate(os.path.getsize(biggest) // 2)
-    for main, argv in ((train.main, ["--out", run, "--resume", "--quiet", "--set", "stage1.iterations=6"]),
-                       (eval_cli.main, ["--run", run, "--groups", "1-2", "--rounds", "2"])):
+    _cut([max(files, key=os.path.getsize)])
+    train_argv = ["--out", run, "--resume", "--quiet", "--set", "stage1.iterations=6"]
+    eval_argv = ["--run", run, "--groups", "1-2", "--rounds", "2"]
+    for main, argv in ((train.main, train_argv), (_cut_all_then(eval_cli.main, step_dir), eval_argv)):
         t = time.time()
         assert main(argv) == 2
         err = capsys.readouterr().err.strip().splitlines()
@@ -124,6 +131,15 @@ def test_damaged_checkpoint_is_named_before_compiling(runs, tmp_path, capsys):
         assert f"checkpoint 4 in {run} is damaged or incomplete" in err[0]
         assert f"delete {step_dir} to go back to checkpoint 2" in err[0]
         assert time.time() - t < 30
+
+
+def _cut_all_then(main, step_dir):
+    def run(argv):
+        data = os.path.join(step_dir, "default", "ocdbt.process_0", "d")
+        _cut([os.path.join(data, f) for f in os.listdir(data)])
+        return main(argv)
+
+    return run
 
 
 def test_divergence_stops_and_keeps_the_last_good_checkpoint(runs, target, tmp_path, capsys, monkeypatch):

@@ -116,9 +116,23 @@ def _closed_loop_filter(hook):
     return unraisable
 
 
+class _LeftoverReadTasks(logging.Filter):
+    """The other reads of a failed orbax restore end as asyncio tasks / futures whose exceptions
+    nobody retrieves; asyncio logs each (a traceback) when it is collected, often at exit."""
+
+    def filter(self, record):
+        msg = record.getMessage()
+        return not ("exception was never retrieved" in msg and "OCDBT" in msg)  # Task or Future
+
+
 def _mute_closed_loop_callbacks() -> None:
+    """Installed before any read (the leftovers of a failed read show up while it is still
+    failing, and later).  Both filters drop only those leftovers."""
     if not getattr(sys.unraisablehook, "vags_jax_filter", False):
         sys.unraisablehook = _closed_loop_filter(sys.unraisablehook)
+    log = logging.getLogger("asyncio")
+    if not any(isinstance(f, _LeftoverReadTasks) for f in log.filters):
+        log.addFilter(_LeftoverReadTasks())
 
 
 def _root_cause(e: BaseException) -> BaseException:
@@ -237,6 +251,7 @@ def _check_files(run_dir: str, step: int) -> None:
 def _saved_tree(run_dir: str, step: int) -> dict:
     """{part: {leaf: metadata with .shape, .dtype}} of a checkpoint, from its metadata only."""
     _check_files(run_dir, step)
+    _mute_closed_loop_callbacks()
     path = os.path.abspath(os.path.join(run_dir, CHECKPOINT_DIR))
     try:
         with _quiet():
@@ -246,7 +261,6 @@ def _saved_tree(run_dir: str, step: int) -> dict:
             finally:
                 mngr.close()
     except Exception as e:  # orbax / tensorstore raise many types for unreadable files
-        _mute_closed_loop_callbacks()
         raise _damaged(run_dir, step, e) from None
     if not isinstance(saved, dict) or not all(isinstance(v, dict) for v in saved.values()):
         raise _damaged(run_dir, step, "its metadata does not list named parts of arrays: not a "
@@ -334,7 +348,6 @@ def read(run_dir: str, step: Optional[int] = None, parts: Optional[list[str]] = 
                     item=want, restore_args=jax.tree.map(lambda _: ocp.RestoreArgs(restore_type=np.ndarray), want),
                     partial_restore=parts is not None))
         except Exception as e:  # orbax / tensorstore raise many types for unreadable files
-            _mute_closed_loop_callbacks()
             raise _damaged(run_dir, step, e) from None
     finally:
         mngr.close()
