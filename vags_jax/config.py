@@ -436,7 +436,11 @@ class DepthNoise:
     dropout_prob: float = 0.0
 
     def __post_init__(self):
-        for name in ("sigma_base", "sigma_quadratic", "edge_jump", "disparity_step"):
+        _within("DepthNoise.sigma_base", self.sigma_base, 0, 0.1, "metres")
+        _within("DepthNoise.sigma_quadratic", self.sigma_quadratic, 0, 0.1)
+        _within("DepthNoise.grazing_dropout_deg", self.grazing_dropout_deg, 0, 90.0, "degrees", lo_open=True)
+        _within("DepthNoise.dropout_prob", self.dropout_prob, 0, 1.0)
+        for name in ("edge_jump", "disparity_step"):
             v = getattr(self, name)
             _check(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v >= 0,
                    f"DepthNoise.{name} must be a finite number >= 0, got {v!r}")
@@ -444,14 +448,9 @@ class DepthNoise:
                f"DepthNoise.grazing_dropout_deg must be in (0, 90], got {self.grazing_dropout_deg}")
         _check(isinstance(self.edge_width, int) and not isinstance(self.edge_width, bool)
                and 0 <= self.edge_width <= 8, f"DepthNoise.edge_width must be an int in 0..8, got {self.edge_width!r}")
-        for name in ("edge_dropout", "dropout_prob"):
-            v = getattr(self, name)
-            _check(0.0 <= v <= 1.0, f"DepthNoise.{name} must be a probability in [0, 1], got {v}")
+        _check(0.0 <= self.edge_dropout <= 1.0,
+               f"DepthNoise.edge_dropout must be a probability in [0, 1], got {self.edge_dropout}")
         _check(self.baseline > 0, f"DepthNoise.baseline must be > 0 m, got {self.baseline}")
-        _within("DepthNoise.sigma_base", self.sigma_base, 0, 0.1, "metres")
-        _within("DepthNoise.sigma_quadratic", self.sigma_quadratic, 0, 0.1)
-        _within("DepthNoise.grazing_dropout_deg", self.grazing_dropout_deg, 0, 90.0, "degrees", lo_open=True)
-        _within("DepthNoise.dropout_prob", self.dropout_prob, 0, 1.0)
 
 
 @dataclass(frozen=True)
