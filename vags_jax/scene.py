@@ -47,7 +47,7 @@ from typing import Optional
 import mujoco
 import numpy as np
 
-from vags_jax.config import OBJECT_SETS as C_OBJECT_SETS, Config, object_pool  # noqa: F401
+from vags_jax.config import Config
 
 SCENES_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "scenes")
 BASE_XML = os.path.join(SCENES_DIR, "base.xml")
@@ -183,19 +183,10 @@ SHAPES: dict[str, Shape] = {
     "sphere": Shape("sphere", "sphere", (0.05, 0.05, 0.05), sized=True),
 }
 
-# Object sets (names, documented in ``vags_jax.config.OBJECT_SETS``) and pools drawn from them.
-OBJECT_SETS = C_OBJECT_SETS
+# Object sets and pools: ``vags_jax.config.OBJECT_SETS`` and ``config.object_pool``.
 
 # Kind codes per pool body (SceneModel.object_kind).
 KIND_FIXED, KIND_BOX, KIND_CAPSULE, KIND_SPHERE = 0, 1, 2, 3
-
-
-def object_set_of(shapes) -> Optional[str]:
-    """Name of the object set that holds every shape of ``shapes``, or None (a custom mix)."""
-    for name, members in OBJECT_SETS.items():
-        if set(shapes) <= set(members):
-            return name
-    return None
 
 
 def size_ranges(shape: Shape, scene_cfg) -> tuple[np.ndarray, np.ndarray]:
