@@ -88,7 +88,7 @@ def test_scatter_placement_rarely_stacks(clutter_env):
 
 
 def test_unseen_set_shares_no_shape_or_size_range_with_training():
-    cfg = Config_with()
+    cfg = C.Config()
     train = {(n, _ranges_key(n, cfg)) for n in OBJECT_SETS["train"]}
     unseen = {(n, _ranges_key(n, cfg)) for n in OBJECT_SETS["unseen"]}
     assert not train & unseen
@@ -98,10 +98,6 @@ def test_unseen_set_shares_no_shape_or_size_range_with_training():
     assert not {SHAPES[n].kind for n in OBJECT_SETS["unseen"]} & kinds_train
     assert object_pool("unseen", 6) == OBJECT_SETS["unseen"]
     assert object_pool("train", 10).count("box") == 6
-
-
-def Config_with(**kw):
-    return replace(C.Config(), **kw)
 
 
 def _ranges_key(name, cfg):

@@ -509,9 +509,11 @@ class Simulator:
             (d, overflow), _ = jax.lax.scan(body, (self._pin(d, pin_q, pin_v), overflow), xs)
             return d, active, overflow
 
+        bounds = self.object_bounds(obj_size)  # the sizes do not change during the loop
+
         def body_drops(carry, x):
             d, active, ovf, t = carry
-            d, active = self._drop_due(d, active, t, drops, obj_size)
+            d, active = self._drop_due(d, active, t, drops, bounds)
             d = step(d.replace(ctrl=ctrl_fn(x)))
             d = self._pin(d, *self._pin_masks(active))
             return (d, active, ovf | self._overflow_now(d, B), t + 1), None
@@ -519,15 +521,16 @@ class Simulator:
         (d, active, overflow, _), _ = jax.lax.scan(body_drops, (d, active, overflow, jnp.int32(0)), xs)
         return d, active, overflow
 
-    def _drop_due(self, d: mjx.Data, active, t, drops: Drops, obj_size):
+    def _drop_due(self, d: mjx.Data, active, t, drops: Drops, bounds):
         """Drop the bodies whose release step is ``t``: each is placed at rest with its bottom
         ``PILE_GAP`` above the highest top of the active bodies it may land on (bounding
-        spheres overlapping in xy), or above the table.  -> (data, active (B, P))."""
+        spheres overlapping in xy), or above the table.  bounds: ``object_bounds`` of the
+        worlds' sizes.  -> (data, active (B, P))."""
         due = drops.release == t  # (B, P)
         ids = self.scene.object_geom_ids
         pos, rot = d.geom_xpos[:, ids], d.geom_xmat[:, ids]
         rz = rot[:, :, 2, :]
-        aabb, rbound = self.object_bounds(obj_size)
+        aabb, rbound = bounds
         top = pos[..., 2] + (rz * aabb[..., :3]).sum(-1) + (jnp.abs(rz) * aabb[..., 3:]).sum(-1)  # (B, P)
         dist = jnp.linalg.norm(drops.xy[:, :, None] - pos[:, None, :, :2], axis=-1)  # (B, P new, P old)
         under = active[:, None, :] & (dist < drops.radius[:, :, None] + rbound[:, None, :])
@@ -658,7 +661,7 @@ class Simulator:
         new sizes and colours, flags cleared, objects placed at their spawn poses at rest
         ("scatter") or parked until their drop ("pile"; returned ``Drops``).  No physics: the
         caller lets the scene settle, passing the ``Drops`` to its loop.  The other worlds are
-        unchanged.  -> (SimState, Drops)."""
+        unchanged.  -> (SimState, Drops, or None for "scatter", where nothing is dropped later)."""
         d = state.data
         obj_qpos, active, rgb, size, drops = jax.vmap(self._sample_world)(keys, n_objects)
         m3 = mask[:, None, None]
@@ -679,7 +682,7 @@ class Simulator:
             error=state.error & ~mask, overflow=state.overflow & ~mask,
             obj_size=jnp.where(m3, size, state.obj_size),
         )
-        return state, drops
+        return state, (drops if self.cfg.scene.placement == "pile" else None)
 
     def _reset_impl(self, keys, n_objects) -> SimState:
         B = keys.shape[0]
@@ -748,6 +751,7 @@ class Simulator:
             mask, keys, n_new = reset
             grasping = ~mask
             state, drops = self._start_rounds(state, mask, keys, n_new)
+            drop_bounds = self.object_bounds(state.obj_size) if drops is not None else None
             d = state.data
             gripper_q = jnp.where(mask[:, None], g_park, pre_grasp)
         z_before = d.qpos[:, self._obj_qidx[:, 2]]  # (B, P)
@@ -787,7 +791,7 @@ class Simulator:
             d, active, ovf, res = carry
             t, s = x
             if drops is not None:  # new pile scenes: their objects drop one after another
-                d, active = self._drop_due(d, active, t, drops, state.obj_size)
+                d, active = self._drop_due(d, active, t, drops, drop_bounds)
             # At the first post-lift step: judge the grasp, park the gripper and the object.
             is_eval = t == n_main
             ev = evaluate(d, active)
