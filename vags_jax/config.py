@@ -638,6 +638,141 @@ class Stage:
                f"overflow the int32 attempt counter; keep it below 2**31 (lower iterations)")
 
 
+# ----------------------------------------------------------------------------- GG-CNN
+
+GGCNN_SIZE_MULTIPLE = 12  # GG-CNN input H, W must be multiples of this (vags_jax.networks.ggcnn)
+GGCNN_ROTATIONS = ("quarter", "any", "none")
+
+
+@dataclass(frozen=True)
+@checked
+class GGCNNConfig:
+    """GG-CNN input, post-processing and training settings (``Config.ggcnn``).
+
+    The defaults are GG-CNN's: 300 x 300 input, smoothing sigmas 2 / 2 / 1, width / 150,
+    Adam (lr 1e-3, torch's default), batch 8, zoom 0.5-1 and quarter-turn rotations.
+    ``train_steps`` Adam updates make ``train.py --stage ggcnn`` (GG-CNN trained for ~50 epochs of
+    Cornell's ~900 images at batch 8, ~5,600 updates; our default is of the same order).
+    """
+
+    input_size: int = 300  # network input side in pixels (a multiple of 12)
+    # Side (camera pixels) of the centred square cropped from the camera depth image before it
+    # is resized to `input_size`.  None: the largest centred square, min(height, width).
+    crop_size: Optional[int] = None
+    inpaint_iters: int = 64  # neighbour-fill passes; holes wider than ~2x this get the frame mean
+    quality_sigma: float = 2.0  # Gaussian smoothing of the quality map (pixels)
+    angle_sigma: float = 2.0  # ... of the cos 2theta / sin 2theta maps
+    width_sigma: float = 1.0  # ... of the width map
+    width_scale: float = 150.0  # width map = opening in input pixels / width_scale
+    learning_rate: float = 1e-3
+    batch_size: int = 8
+    zoom_range: tuple[float, float] = (0.5, 1.0)  # augmentation: crop side fraction, resized up
+    rotation: str = "quarter"  # augmentation: "quarter" (0/90/180/270 deg), "any", "none"
+    train_steps: int = 4000  # Adam updates of train.py --stage ggcnn
+
+    def __post_init__(self):
+        m = GGCNN_SIZE_MULTIPLE
+        _check(self.input_size >= m and self.input_size % m == 0,
+               f"GGCNNConfig.input_size must be a positive multiple of {m} (e.g. 300), got {self.input_size!r}")
+        _within("GGCNNConfig.input_size", self.input_size, m, MAX_IMAGE_SIDE, "pixels")
+        _check(self.crop_size is None or self.crop_size >= 1,
+               f"GGCNNConfig.crop_size must be None or an int >= 1 camera pixels, got {self.crop_size!r}")
+        if self.crop_size is not None:
+            _within("GGCNNConfig.crop_size", self.crop_size, 1, MAX_IMAGE_SIDE, "camera pixels")
+        _within("GGCNNConfig.inpaint_iters", self.inpaint_iters, 0, 4096)
+        for name in ("quality_sigma", "angle_sigma", "width_sigma"):
+            _within(f"GGCNNConfig.{name}", getattr(self, name), 0, 100.0, "pixels")
+        _within("GGCNNConfig.width_scale", self.width_scale, 0, 1e4, lo_open=True)
+        _within("GGCNNConfig.learning_rate", self.learning_rate, 0, 1.0, lo_open=True)
+        _within("GGCNNConfig.batch_size", self.batch_size, 1, 1 << 16)
+        _within("GGCNNConfig.train_steps", self.train_steps, 1, 10**8)
+        lo, hi = self.zoom_range
+        _check(0 < lo <= hi <= 1,
+               f"GGCNNConfig.zoom_range must satisfy 0 < low <= high <= 1, got {self.zoom_range}")
+        _check(self.rotation in GGCNN_ROTATIONS,
+               f"GGCNNConfig.rotation must be one of {GGCNN_ROTATIONS}, got {self.rotation!r}")
+
+
+@dataclass(frozen=True)
+@checked
+class GGCNNData:
+    """GG-CNN's training views, labelled in physics (``Config.ggcnn_data``; ``vags_jax.ggcnn_data``).
+
+    Each view is a depth image of a fresh random scene of ``min_objects..max_objects`` objects
+    (the config's scenes): a close view (``Camera.viewpoint_height`` above a random object
+    cell, shifted by up to ``view_jitter``) or, with probability ``global_view_share``, the
+    global view.  ``candidates`` grasps per view (centres on object pixels of the view, angles
+    uniform) are tried in parallel copies of the scene; successes become label rectangles
+    (centre-third rule) of length = the measured jaw gap + ``width_margin`` and across-size
+    ``jaw``.  ``scenes_per_batch * candidates`` worlds run together.
+    """
+
+    views: int = 2048  # training views
+    heldout_views: int = 256  # views of other scenes, for held-out accuracy
+    candidates: int = 64  # grasps tried per view
+    scenes_per_batch: int = 16
+    min_objects: int = 1
+    max_objects: Optional[int] = None  # None: scene.max_objects
+    global_view_share: float = 0.25
+    view_jitter: float = 0.04  # m, xy offset of a close view from the chosen object cell
+    jaw: float = 0.02  # m, label rectangle extent across the closing axis (finger pad width)
+    width_margin: float = 0.01  # m added to the measured jaw gap for the width label
+
+    def __post_init__(self):
+        _within("GGCNNData.views", self.views, 1, 1 << 22)
+        _within("GGCNNData.heldout_views", self.heldout_views, 1, 1 << 22)
+        _within("GGCNNData.candidates", self.candidates, 1, 4096)
+        _within("GGCNNData.scenes_per_batch", self.scenes_per_batch, 1, MAX_WORLDS)
+        _check(self.scenes_per_batch * self.candidates <= MAX_WORLDS,
+               f"GGCNNData: scenes_per_batch * candidates = {self.scenes_per_batch * self.candidates:,} "
+               f"worlds, more than {MAX_WORLDS:,}; lower one of them")
+        _within("GGCNNData.min_objects", self.min_objects, 1, 1000)
+        _check(self.max_objects is None or self.min_objects <= self.max_objects,
+               f"GGCNNData needs 1 <= min_objects <= max_objects, got {self.min_objects}..{self.max_objects}")
+        _within("GGCNNData.global_view_share", self.global_view_share, 0, 1.0)
+        _within("GGCNNData.view_jitter", self.view_jitter, 0, 0.5, "metres")
+        _within("GGCNNData.jaw", self.jaw, 0, 0.2, "metres", lo_open=True)
+        _within("GGCNNData.width_margin", self.width_margin, 0, 0.2, "metres")
+
+
+# ----------------------------------------------------------------------------- benchmark
+
+
+@dataclass(frozen=True)
+@checked
+class Benchmark:
+    """The benchmark protocol (``eval.py``, ``vags_jax.evaluate``; docs/benchmark.md).
+
+    ``rounds`` rounds (parallel worlds) for each group size in ``groups``; a round ends when
+    the table is clear or after ``2 * objects + max_attempts_extra`` attempts.  The robot-time
+    model of picks per hour (``evaluate.MotionTimeModel``): every commanded Cartesian move at
+    ``speed``, ``capture_s`` per motion (an RGB-D capture + inference at each pose reached),
+    ``close_s`` + ``lift_s`` per attempt, ``place_s`` per success.  Round numbers for a UR5 +
+    RG2 cell, the same for every method; not measured on a robot.
+    """
+
+    groups: Optional[tuple[int, ...]] = None  # None: 1..scene.max_objects
+    rounds: int = 50
+    max_attempts_extra: int = 5
+    speed: float = 0.5  # m/s
+    capture_s: float = 0.5
+    close_s: float = 0.5
+    lift_s: float = 0.5
+    place_s: float = 2.0
+
+    def __post_init__(self):
+        if self.groups is not None:
+            _check(len(self.groups) >= 1, "Benchmark.groups must name at least one object count, e.g. [1, 2, 3]")
+            for k in self.groups:
+                _within("Benchmark.groups", k, 1, 1000, "objects")
+            _check(len(set(self.groups)) == len(self.groups), f"Benchmark.groups must not repeat, got {self.groups}")
+        _within("Benchmark.rounds", self.rounds, 1, MAX_WORLDS)
+        _within("Benchmark.max_attempts_extra", self.max_attempts_extra, 0, 1000)
+        _within("Benchmark.speed", self.speed, 0, 100.0, "m/s", lo_open=True)
+        for name in ("capture_s", "close_s", "lift_s", "place_s"):
+            _within(f"Benchmark.{name}", getattr(self, name), 0, 3600.0, "seconds")
+
+
 @dataclass(frozen=True)
 @checked
 class Config:
@@ -654,8 +789,19 @@ class Config:
     replay: Replay = field(default_factory=Replay)
     exploration: Exploration = field(default_factory=Exploration)
     stage1: Stage = field(default_factory=Stage)
+    ggcnn: GGCNNConfig = field(default_factory=GGCNNConfig)
+    ggcnn_data: GGCNNData = field(default_factory=GGCNNData)
+    benchmark: Benchmark = field(default_factory=Benchmark)
 
     def __post_init__(self):
+        N = self.scene.max_objects
+        _check(self.ggcnn_data.max_objects is None or self.ggcnn_data.max_objects <= N,
+               f"ggcnn_data.max_objects ({self.ggcnn_data.max_objects}) exceeds scene.max_objects ({N})")
+        _check(self.ggcnn_data.min_objects <= N,
+               f"ggcnn_data.min_objects ({self.ggcnn_data.min_objects}) exceeds scene.max_objects ({N})")
+        _check(self.benchmark.groups is None or max(self.benchmark.groups) <= N,
+               f"benchmark.groups {self.benchmark.groups} go above scene.max_objects ({N}); the scene "
+               f"holds at most {N} objects")
         _check(
             self.stage1.max_objects <= self.scene.max_objects,
             f"stage1.max_objects ({self.stage1.max_objects}) exceeds scene.max_objects "
@@ -686,6 +832,18 @@ class Config:
                f"{self.net.n_rotations} x {px} x {px} each, {q_bytes / 2**30:,.0f} GiB at 2 bytes per "
                f"value, more than {MAX_DEVICE_BYTES // 2**30} GiB; lower stage1.n_worlds or "
                f"workspace.heightmap_px")
+
+
+def benchmark_groups(cfg: Config) -> tuple[int, ...]:
+    """The benchmark's group sizes: ``benchmark.groups``, or 1..scene.max_objects when None."""
+    g = cfg.benchmark.groups
+    return tuple(range(1, cfg.scene.max_objects + 1)) if g is None else tuple(g)
+
+
+def ggcnn_object_range(cfg: Config) -> tuple[int, int]:
+    """(min, max) objects of GG-CNN's training scenes (max None: scene.max_objects)."""
+    d = cfg.ggcnn_data
+    return d.min_objects, (cfg.scene.max_objects if d.max_objects is None else d.max_objects)
 
 
 def replace(cfg, **changes):
@@ -818,6 +976,10 @@ def tiny() -> Config:
         replay=Replay(capacity=512),
         exploration=Exploration(eps_decay=0.99),
         stage1=Stage(n_worlds=4, iterations=40, min_objects=1, max_objects=3, learning_starts=8),
+        # GG-CNN at 24 x 24 (the 96-pixel square of the 128 x 96 image, resized by 1/4).
+        ggcnn=GGCNNConfig(input_size=24, inpaint_iters=16, quality_sigma=1.0, angle_sigma=1.0,
+                          width_sigma=0.5, train_steps=60),
+        ggcnn_data=GGCNNData(views=16, heldout_views=8, candidates=8, scenes_per_batch=4),
     )
 
 

@@ -57,6 +57,40 @@ class EnvState:
         return self.height.shape[0]
 
 
+@struct.dataclass
+class CameraImage:
+    """Raw RGB-D images of B worlds: depth (B, h, w) float32 metres along the optical axis (sensor
+    model applied, 0 = missing); rgb (B, h, w, 3) uint8; pose (B, 4, 4) camera-to-world."""
+
+    depth: jax.Array
+    rgb: jax.Array
+    pose: jax.Array
+
+
+@struct.dataclass
+class Attempt:
+    """One planned grasp attempt per world (B worlds).
+
+    position: (B, 3) world grasp point (fingertip centre); yaw: (B,) closing-axis angle (rad);
+    start: (B, 3) hand position where the grasp's approach begins: where the last image was
+    captured (the global pose, or the viewpoint the camera moved to); motions: (B,) int32
+    camera or gripper motions of the attempt (1 = grasp from the global view, 2 = one viewpoint
+    move then the grasp, more for multi-view methods); view_travel: (B,) float32 metres the
+    hand travelled for those camera moves before the grasp.
+    """
+
+    position: jax.Array
+    yaw: jax.Array
+    start: jax.Array
+    motions: jax.Array
+    view_travel: jax.Array
+
+
+def select_attempt(mask: jax.Array, a: Attempt, b: Attempt) -> Attempt:
+    """Per world: attempt ``a`` where mask (B,) is set, else ``b``."""
+    return jax.tree.map(lambda x, y: jnp.where(mask.reshape((-1,) + (1,) * (x.ndim - 1)), x, y), a, b)
+
+
 class VagsEnv:
     """Scene + simulator + renderer for one config.  Build once, reuse for any batch size."""
 
@@ -90,20 +124,65 @@ class VagsEnv:
                 )
         return self._geometry[key]
 
-    def max_attempts(self, n_objects: jax.Array) -> jax.Array:
-        """(B,) attempts allowed in a round that started with n_objects (B,)."""
-        return 2 * n_objects + self.cfg.stage1.max_attempts_extra
+    def max_attempts(self, n_objects: jax.Array, extra: Optional[int] = None) -> jax.Array:
+        """(B,) attempts allowed in a round that started with n_objects (B,):
+        ``2 * n_objects + extra`` (default ``stage1.max_attempts_extra``; the benchmark passes
+        ``benchmark.max_attempts_extra``)."""
+        return 2 * n_objects + (self.cfg.stage1.max_attempts_extra if extra is None else extra)
 
     @staticmethod
     def n_remaining(state: EnvState) -> jax.Array:
         """(B,) int32 objects still on the table."""
         return state.sim.active.sum(axis=1).astype(jnp.int32)
 
-    def round_over(self, state: EnvState) -> jax.Array:
-        """(B,) bool: table clear, or the round's attempt budget is used up."""
-        return (self.n_remaining(state) == 0) | (state.attempts >= self.max_attempts(state.sim.n_objects))
+    def round_over(self, state: EnvState, extra: Optional[int] = None) -> jax.Array:
+        """(B,) bool: table clear, or the round's attempt budget (``max_attempts``) is used up."""
+        return (self.n_remaining(state) == 0) | (state.attempts >= self.max_attempts(state.sim.n_objects, extra))
 
     # ------------------------------------------------------------------ pure, jittable
+
+    def _per_render_batch(self, fn, args: tuple, B: int):
+        """``fn(*args)`` over B worlds in groups of ``camera.render_batch`` (memory stays that of
+        one group; the Warp renderer's context is built for that many worlds).  Every leaf of
+        ``args`` and of the output has the leading world axis B."""
+        chunk = self.cfg.camera.render_batch
+        if B <= chunk:
+            return fn(*args)
+        n = -(-B // chunk)
+        pad = n * chunk - B
+        grouped = [jnp.concatenate([a, jnp.repeat(a[-1:], pad, 0)]) if pad else a for a in args]
+        grouped = [a.reshape((n, chunk) + a.shape[1:]) for a in grouped]
+        out = jax.lax.map(lambda xs: fn(*xs), tuple(grouped))
+        return jax.tree.map(lambda x: x.reshape((n * chunk,) + x.shape[2:])[:B], out)
+
+    def _sensor(self, sim_state: SimState, cam_pose: jax.Array, key: Optional[jax.Array]):
+        """What ``fn(xpos, xmat, rgb, pose, keys, size)`` needs to render B worlds: the render
+        geometry, a function giving ``(sensor depth (b,h,w), clean depth, geom id, cos)`` for a
+        group of worlds, and the per-world argument tuple."""
+        cfg = self.cfg
+        B = sim_state.n_worlds
+        d = sim_state.data
+        if cfg.camera.noise.enabled and key is None:
+            raise ValueError("camera.noise.enabled needs a PRNG key to render a sensor image")
+        keys = jax.random.split(key if key is not None else jax.random.PRNGKey(0), B)
+        geometry = self.geometry(min(B, cfg.camera.render_batch))
+        size = self.sim.geom_size(sim_state)  # (B, ngeom, 3), or None: no size is drawn
+        sized = size is not None
+
+        def sense(xpos, xmat, pose, k, size):
+            clean, gid, cos = render.depth_and_segmentation(geometry, xpos, xmat, pose, cfg.camera,
+                                                            geom_size=size if sized else None)
+            depth = clean
+            if cfg.camera.noise.enabled:
+                if cos is None:
+                    cos = render.normals_from_depth(clean, cfg.camera)
+                depth = jax.vmap(lambda kk, dd, cc: render.add_depth_noise(
+                    kk, dd[None], cc[None], cfg.camera.noise, cfg.camera.fx)[0])(k, depth, cos)
+            return depth, clean, gid, cos
+
+        args = (d.geom_xpos, d.geom_xmat, sim_state.geom_rgb, cam_pose, keys,
+                size if sized else jnp.zeros((B,), jnp.float32))
+        return sense, args
 
     def observe(self, sim_state: SimState, cam_pose: jax.Array, key: Optional[jax.Array] = None):
         """Render every world from cam_pose (B, 4, 4) -> (color (B,H,W,3) uint8, height (B,H,W)).
@@ -111,26 +190,10 @@ class VagsEnv:
         ``key`` is needed only when the config's depth noise is enabled.
         """
         cfg = self.cfg
-        B = sim_state.n_worlds
-        d = sim_state.data
-        if cfg.camera.noise.enabled and key is None:
-            raise ValueError("camera.noise.enabled needs a PRNG key in observe()")
-        keys = jax.random.split(key if key is not None else jax.random.PRNGKey(0), B)
-        chunk = cfg.camera.render_batch
-        geometry = self.geometry(min(B, chunk))
-
-        size = self.sim.geom_size(sim_state)  # (B, ngeom, 3), or None: no size is drawn
-        sized = size is not None
+        sense, args = self._sensor(sim_state, cam_pose, key)
 
         def one_batch(xpos, xmat, rgb, pose, k, size):
-            clean, gid, cos = render.depth_and_segmentation(geometry, xpos, xmat, pose, cfg.camera,
-                                                            geom_size=size if sized else None)
-            depth = clean
-            if cfg.camera.noise.enabled:
-                if cos is None:
-                    cos = render.normals_from_depth(clean, cfg.camera)
-                depth = jax.vmap(lambda kk, dd, cc: render.add_depth_noise(kk, dd[None], cc[None], cfg.camera.noise, cfg.camera.fx)[0])(
-                    k, depth, cos)
+            depth, clean, gid, cos = sense(xpos, xmat, pose, k, size)
             height, source = heightmap.height_and_source(depth, pose, cfg.camera, cfg.workspace)
             # Colour only where the heightmap uses it, at each cell's source pixel: the same
             # shading as `render.render_full`, without colouring the whole image first.
@@ -142,18 +205,28 @@ class VagsEnv:
             color = render.shade(g, c, rgb).reshape(height.shape + (3,))
             return color, height
 
-        args = (d.geom_xpos, d.geom_xmat, sim_state.geom_rgb, cam_pose, keys,
-                size if sized else jnp.zeros((B,), jnp.float32))
-        if B <= chunk:
-            return one_batch(*args)
-        # Render groups of `chunk` worlds one after the other: memory stays that of one group
-        # (and the Warp renderer's context is built for `chunk` worlds).
-        n = -(-B // chunk)
-        pad = n * chunk - B
-        grouped = [jnp.concatenate([a, jnp.repeat(a[-1:], pad, 0)]) if pad else a for a in args]
-        grouped = [a.reshape((n, chunk) + a.shape[1:]) for a in grouped]
-        color, height = jax.lax.map(lambda xs: one_batch(*xs), tuple(grouped))
-        return color.reshape((n * chunk,) + color.shape[2:])[:B], height.reshape((n * chunk,) + height.shape[2:])[:B]
+        return self._per_render_batch(one_batch, args, sim_state.n_worlds)
+
+    def camera_image(self, sim_state: SimState, cam_pose: jax.Array, key: Optional[jax.Array] = None):
+        """The raw RGB-D image of every world from cam_pose (B, 4, 4), as the eye-in-hand
+        camera delivers it -> ``CameraImage`` (depth (B, h, w) float32 metres with the sensor
+        model's noise and holes, 0 = missing; rgb (B, h, w, 3) uint8; pose (B, 4, 4)).
+
+        ``key`` is needed only when the config's depth noise is enabled.
+        """
+        cfg = self.cfg
+        sense, args = self._sensor(sim_state, cam_pose, key)
+
+        def one_batch(xpos, xmat, rgb, pose, k, size):
+            depth, clean, gid, cos = sense(xpos, xmat, pose, k, size)
+            if cos is None:
+                cos = render.normals_from_depth(clean, cfg.camera)
+            b, h, w = depth.shape
+            color = render.shade(gid.reshape(b, -1), cos.reshape(b, -1), rgb).reshape(b, h, w, 3)
+            return depth, color
+
+        depth, rgb = self._per_render_batch(one_batch, args, sim_state.n_worlds)
+        return CameraImage(depth=depth, rgb=rgb, pose=cam_pose)
 
     def observe_global(self, sim_state: SimState, key: Optional[jax.Array] = None):
         pose = jnp.broadcast_to(jnp.asarray(self.global_pose), (sim_state.n_worlds, 4, 4))
@@ -207,21 +280,58 @@ class VagsEnv:
         """(B, 3) hand position before a grasp: where the global view was captured."""
         return jnp.broadcast_to(jnp.asarray(self.cfg.camera.global_position, jnp.float32), (n_worlds, 3))
 
+    def viewpoint_pose(self, state: EnvState, pixel: jax.Array) -> jax.Array:
+        """(B, 4, 4) camera pose ``camera.viewpoint_height`` above the global heightmap's surface at
+        pixel (B, 2) [row, col], looking straight down (``camera.viewpoint_pose``)."""
+        return camera.viewpoint_pose(pixel, state.height, self.cfg.workspace, self.cfg.camera)
+
+    def global_poses(self, n_worlds: int) -> jax.Array:
+        """(B, 4, 4) the global camera pose for every world."""
+        return jnp.broadcast_to(jnp.asarray(self.global_pose), (n_worlds, 4, 4))
+
+    def direct_attempt(self, position: jax.Array, yaw: jax.Array) -> Attempt:
+        """A grasp planned on the global view: from the global pose, 1 motion."""
+        B = position.shape[0]
+        return Attempt(position=position, yaw=yaw, start=self._start(B), motions=jnp.ones((B,), jnp.int32),
+                       view_travel=jnp.zeros((B,), jnp.float32))
+
+    def viewpoint_attempt(self, position: jax.Array, yaw: jax.Array, view_pose: jax.Array) -> Attempt:
+        """A grasp planned on a close view taken at view_pose (B, 4, 4): the hand first moves
+        from the global pose to the viewpoint (1 motion, its distance counted), captures, then
+        grasps with the approach starting there (the 2nd motion)."""
+        B = position.shape[0]
+        view = view_pose[:, :3, 3]
+        return Attempt(position=position, yaw=yaw, start=view, motions=jnp.full((B,), 2, jnp.int32),
+                       view_travel=jnp.linalg.norm(view - self._start(B), axis=1))
+
     def _after_grasp(self, state: EnvState, sim_state: SimState, result: GraspResult, key,
-                     motions: int, observe: bool, grasped: Optional[jax.Array] = None) -> EnvState:
-        """Round bookkeeping (+1 attempt where ``grasped``, (B,) bool, default all) and the
-        new global view.  Worlds that did not grasp (they were reset) start from zero."""
+                     motions, observe: bool, grasped: Optional[jax.Array] = None,
+                     view_travel: Optional[jax.Array] = None) -> EnvState:
+        """Round bookkeeping (+1 attempt where ``grasped``, (B,) bool, default all; + ``motions``,
+        an int or (B,) int32; travel + the grasp's + ``view_travel`` (B,)) and the new global
+        view.  Worlds that did not grasp (they were reset) start from zero."""
         state = state.replace(sim=sim_state)
         if observe:
             state = self.with_observation(state, key)
         g = jnp.ones((state.n_worlds,), bool) if grasped is None else grasped
         zi = jnp.zeros((state.n_worlds,), jnp.int32)
+        extra = 0.0 if view_travel is None else view_travel
         return state.replace(
             attempts=jnp.where(g, state.attempts + 1, zi),
             successes=jnp.where(g, state.successes + result.success.astype(jnp.int32), zi),
             motions=jnp.where(g, state.motions + motions, zi),
-            travel=jnp.where(g, state.travel + result.approach + result.descend + result.lift, 0.0),
+            travel=jnp.where(g, state.travel + result.approach + result.descend + result.lift + extra, 0.0),
         )
+
+    def step_attempt(self, state: EnvState, attempt: Attempt, key: Optional[jax.Array] = None,
+                     observe: bool = True):
+        """Execute one planned attempt per world (each world on its own branch: direct or after
+        a viewpoint move), then (``observe``) re-observe the global view.  Returns
+        (EnvState, GraspResult); ``GraspResult.approach`` runs from ``attempt.start``."""
+        sim_state, result = self.sim.grasp_batched(state.sim, attempt.position, attempt.yaw, attempt.start)
+        state = self._after_grasp(state, sim_state, result, key, attempt.motions, observe,
+                                  view_travel=attempt.view_travel)
+        return state, result
 
     def step_grasp_world(self, state: EnvState, position: jax.Array, yaw: jax.Array,
                          key: Optional[jax.Array] = None, motions: int = 1, observe: bool = True):
@@ -334,4 +444,4 @@ def _raw_key(key) -> jax.Array:
     return key
 
 
-__all__ = ["EnvState", "VagsEnv", "GraspResult", "where_worlds"]
+__all__ = ["EnvState", "VagsEnv", "GraspResult", "CameraImage", "Attempt", "select_attempt", "where_worlds"]

@@ -40,6 +40,8 @@ import flax.struct
 import jax
 import jax.numpy as jnp
 
+from vags_jax.config import GGCNN_ROTATIONS, GGCNN_SIZE_MULTIPLE, GGCNNConfig  # noqa: F401 (re-exported)
+
 # The network is fixed by the paper: filters, kernels, strides and torch paddings per layer.
 FILTERS = (32, 16, 8, 8, 16, 32)
 KERNELS = (9, 5, 3, 3, 5, 9)
@@ -51,65 +53,11 @@ SIZE_MULTIPLE = 12  # input H, W must be multiples of this
 N_PARAMS = 62_420
 HEADS = ("quality", "cos", "sin", "width")
 
-_ROTATIONS = ("quarter", "any", "none")
 
 
 def _check(cond: bool, msg: str) -> None:
     if not cond:
         raise ValueError(msg)
-
-
-@dataclass(frozen=True)
-class GGCNNConfig:
-    """GG-CNN input, post-processing and training settings (to move into ``config.py``).
-
-    The defaults are GG-CNN's: 300 x 300 input, smoothing sigmas 2 / 2 / 1, width / 150,
-    Adam (lr 1e-3, torch's default), batch 8, zoom 0.5-1 and quarter-turn rotations.
-    """
-
-    input_size: int = 300  # network input side in pixels (a multiple of 12)
-    # Side (camera pixels) of the centred square cropped from the camera depth image before it
-    # is resized to `input_size`.  None: the largest centred square, min(height, width).
-    crop_size: Optional[int] = None
-    inpaint_iters: int = 64  # neighbour-fill passes; holes wider than ~2x this get the frame mean
-    quality_sigma: float = 2.0  # Gaussian smoothing of the quality map (pixels)
-    angle_sigma: float = 2.0  # ... of the cos 2theta / sin 2theta maps
-    width_sigma: float = 1.0  # ... of the width map
-    width_scale: float = 150.0  # width map = opening in input pixels / width_scale
-    learning_rate: float = 1e-3
-    batch_size: int = 8
-    zoom_range: tuple[float, float] = (0.5, 1.0)  # augmentation: crop side fraction, resized up
-    rotation: str = "quarter"  # augmentation: "quarter" (0/90/180/270 deg), "any", "none"
-
-    def __post_init__(self):
-        _check(
-            isinstance(self.input_size, int) and self.input_size >= SIZE_MULTIPLE
-            and self.input_size % SIZE_MULTIPLE == 0,
-            f"GGCNNConfig.input_size must be a positive multiple of {SIZE_MULTIPLE} (e.g. 300), "
-            f"got {self.input_size!r}",
-        )
-        _check(
-            self.crop_size is None or (isinstance(self.crop_size, int) and self.crop_size >= 1),
-            f"GGCNNConfig.crop_size must be None or an int >= 1 camera pixels, got {self.crop_size!r}",
-        )
-        _check(
-            isinstance(self.inpaint_iters, int) and self.inpaint_iters >= 0,
-            f"GGCNNConfig.inpaint_iters must be an int >= 0, got {self.inpaint_iters!r}",
-        )
-        for name in ("quality_sigma", "angle_sigma", "width_sigma"):
-            _check(getattr(self, name) >= 0, f"GGCNNConfig.{name} must be >= 0 pixels")
-        _check(self.width_scale > 0, f"GGCNNConfig.width_scale must be > 0, got {self.width_scale}")
-        _check(self.learning_rate > 0, f"GGCNNConfig.learning_rate must be > 0, got {self.learning_rate}")
-        _check(self.batch_size >= 1, f"GGCNNConfig.batch_size must be >= 1, got {self.batch_size}")
-        lo, hi = self.zoom_range
-        _check(
-            0 < lo <= hi <= 1,
-            f"GGCNNConfig.zoom_range must satisfy 0 < low <= high <= 1, got {self.zoom_range}",
-        )
-        _check(
-            self.rotation in _ROTATIONS,
-            f"GGCNNConfig.rotation must be one of {_ROTATIONS}, got {self.rotation!r}",
-        )
 
 
 @flax.struct.dataclass
