@@ -6,9 +6,12 @@
     python eval.py --config tiny --policy random --groups 1,2 --rounds 8 --out runs/random.json
     python eval.py --run runs/gpu --set scene.max_objects=10 scene.copies_per_shape=2   # 1..10
     python eval.py --run runs/gpu --objects unseen      # held-out shapes the GDNet never saw
+    python eval.py --run runs/gpu --policy ggcnn-close  # GG-CNN of train.py --stage ggcnn, close view
 
-Policies: gdnet (needs --run: its config.json and latest checkpoint, or --step), random,
-highest, heuristic (see vags_jax/evaluate.py).  The configuration is the run's config.json
+Policies: gdnet (needs --run: its config.json and latest checkpoint, or --step), ggcnn and
+ggcnn-close (need --run with a GG-CNN from train.py --stage ggcnn), random, highest,
+heuristic (see vags_jax/evaluate.py).  Groups, rounds, the attempt budget and the robot-time
+model of picks per hour come from the config's benchmark section (--set benchmark.rounds=20).  The configuration is the run's config.json
 (or the --config preset) with --set overrides applied; the scene must hold the largest group
 (scene.max_objects).  Prints a Markdown table and writes the full report as JSON to --out, or
 to RUN/eval_<policy>[_step<N>].json.
@@ -32,19 +35,21 @@ def parse_args(argv=None):
     p = cli.ArgumentParser(prog=PROG, description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--run", default=None, help="run directory written by train.py (config.json + checkpoints/)")
     p.add_argument("--policy", default=None,
-                   help="gdnet | random | highest | heuristic (default: gdnet with --run, else heuristic)")
+                   help="gdnet | ggcnn | ggcnn-close | random | highest | heuristic (default: gdnet with "
+                        "--run, else heuristic)")
     p.add_argument("--config", default=None, help="preset when there is no --run: tiny | gpu | paper | default (default: tiny)")
     p.add_argument("--set", nargs="*", default=[], metavar="SECTION.FIELD=VALUE",
-                   help="evaluation config overrides, e.g. scene.max_objects=10 stage1.max_attempts_extra=5")
-    p.add_argument("--groups", default="1-10", help="object counts: 1,2,3 or 1-10 or 1-3,5 (default 1-10)")
-    p.add_argument("--rounds", type=cli.int_in(1, 1 << 20), default=50,
-                   help="rounds per group = parallel worlds (default 50)")
+                   help="evaluation config overrides, e.g. scene.max_objects=10 benchmark.max_attempts_extra=5")
+    p.add_argument("--groups", default=None,
+                   help="object counts: 1,2,3 or 1-10 or 1-3,5 (default: benchmark.groups, else 1..scene.max_objects)")
+    p.add_argument("--rounds", type=cli.int_in(1, 1 << 20), default=None,
+                   help="rounds per group = parallel worlds (default: benchmark.rounds, 50)")
     p.add_argument("--seed", type=cli.int_in(0, 2**32 - 1), default=None,
                    help="PRNG seed (default: the config's seed)")
     p.add_argument("--step", type=cli.int_in(0), default=None, help="checkpoint step for gdnet (default: latest)")
     p.add_argument("--out", default=None, help="JSON report path (default: RUN/eval_<policy>.json)")
     p.add_argument("--speed", type=cli.positive_float(100.0), default=None,
-                   help="motion-time model: gripper speed m/s (default 0.5)")
+                   help="motion-time model: gripper speed m/s (default benchmark.speed, 0.5)")
     p.add_argument("--objects", default=None, choices=("train", "unseen", "legacy"),
                    help="object set of the scenes (default: the config's pool; 'unseen': the held-out "
                         "shapes, never trained on)")
@@ -90,10 +95,11 @@ def main(argv=None) -> int:
     from vags_jax import config as C
 
     policy = args.policy or ("gdnet" if args.run else "heuristic")
+    ggcnn_params = None
     try:
         # Checks with light imports first, so a bad input is refused in about a second ...
-        if policy == "gdnet" and not args.run:
-            raise ValueError("policy gdnet needs --run RUN_DIR (a run written by train.py)")
+        if policy in ("gdnet", "ggcnn", "ggcnn-close") and not args.run:
+            raise ValueError(f"policy {policy} needs --run RUN_DIR (a run written by train.py)")
         if args.run and args.config:
             raise ValueError("--run uses the run's own config.json; drop --config (use --set to override)")
         if args.run is not None and not args.run:
@@ -106,14 +112,22 @@ def main(argv=None) -> int:
             raise ValueError(f"--step selects a gdnet checkpoint; policy {policy!r} uses none: drop --step")
         if args.out is not None:
             cli.check_writable_file(args.out, "--out")
-        groups = parse_groups(args.groups)
+        groups = None if args.groups is None else parse_groups(args.groups)
         overrides = C.parse_overrides(args.set)
+        if args.speed is not None:
+            if "benchmark.speed" in overrides:
+                raise ValueError("give the speed once: --speed or --set benchmark.speed=...")
+            overrides["benchmark.speed"] = args.speed
         if args.run:
             from vags_jax import checkpoint
 
             run_cfg = checkpoint.load_config(args.run)  # missing / damaged config.json
             if policy == "gdnet":  # missing step, damaged files
                 checkpoint.read(args.run, args.step, parts=["learner"])
+            if policy in ("ggcnn", "ggcnn-close"):  # no GG-CNN in the run, damaged files
+                from vags_jax.ggcnn_stage import load_ggcnn
+
+                ggcnn_params, _ = load_ggcnn(args.run)
         else:
             run_cfg = C.preset(args.config or "tiny")
         scene_over = dict(C.LEGACY_SCENES) if args.scenes == "legacy" else {}
@@ -127,7 +141,15 @@ def main(argv=None) -> int:
         if policy == "gdnet" and (cfg.net != run_cfg.net or cfg.workspace != run_cfg.workspace):
             raise ValueError("--set must not change net.* or workspace.*: the trained GDNet needs the "
                              "network and heightmaps it was trained with")
-        check_rounds_fit(cfg, args.rounds)
+        if policy in ("ggcnn", "ggcnn-close") and (
+                cfg.ggcnn.input_size != run_cfg.ggcnn.input_size or cfg.ggcnn.crop_size != run_cfg.ggcnn.crop_size
+                or (cfg.camera.width, cfg.camera.height, cfg.camera.fx, cfg.camera.fy)
+                != (run_cfg.camera.width, run_cfg.camera.height, run_cfg.camera.fx, run_cfg.camera.fy)):
+            raise ValueError("--set must not change ggcnn.input_size / crop_size or the camera image size and "
+                             "focal length: the trained GG-CNN needs the image scale it was trained on")
+        rounds = cfg.benchmark.rounds if args.rounds is None else args.rounds
+        groups = C.benchmark_groups(cfg) if groups is None else groups
+        check_rounds_fit(cfg, rounds)
         # ... then the rest, which needs the simulator's modules (still nothing compiled).
         from vags_jax import evaluate as E
 
@@ -136,8 +158,8 @@ def main(argv=None) -> int:
         variables, step = None, None
         if policy == "gdnet":  # the learner, checked against the run's network config
             _, variables, step = E.load_gdnet(args.run, args.step)
-        groups = E.check_groups(groups, cfg, args.rounds)
-        time_model = E.MotionTimeModel() if args.speed is None else E.MotionTimeModel(speed=args.speed)
+        groups = E.check_groups(groups, cfg, rounds)
+        time_model = E.MotionTimeModel.from_config(cfg)
         out = args.out
         if out is None and args.run:
             tag = "".join(f"_{t}" for t in (args.objects, args.scenes) if t)
@@ -149,11 +171,11 @@ def main(argv=None) -> int:
     import jax
 
     print(f"evaluating {policy}" + (f" ({args.run}, checkpoint {step})" if step is not None else "")
-          + f": groups {groups}, {args.rounds} rounds each, impl={cfg.sim.impl}, devices={jax.devices()}",
+          + f": groups {groups}, {rounds} rounds each, impl={cfg.sim.impl}, devices={jax.devices()}",
           file=sys.stderr)
     ev = E.Evaluator(cfg)
-    pol = E.make_policy(policy, cfg, variables)
-    report = E.evaluate(cfg, pol, groups, args.rounds, args.seed, time_model, ev,
+    pol = E.make_policy(policy, cfg, variables, ggcnn_params)
+    report = E.evaluate(cfg, pol, groups, rounds, args.seed, time_model, ev,
                         log=lambda s: print(s, file=sys.stderr, flush=True))
     print(E.format_table(report))
     if out:

@@ -3,13 +3,14 @@
 Protocol.  For every group size ``k`` (default 1..10) run ``R`` rounds (default 50).  All R
 rounds of a group are R parallel worlds of ONE batch: each starts with ``k`` objects drawn from
 the block set (random shapes, colours, poses: ``VagsEnv.step_reset``).  A round ends when the
-table is clear, after ``2 * k + cfg.stage1.max_attempts_extra`` grasp attempts, or on a physics
+table is clear, after ``2 * k + cfg.benchmark.max_attempts_extra`` grasp attempts, or on a physics
 error.  The attempts run inside one jitted ``lax.while_loop`` that stops when every round is
 over; a finished world's state is frozen (its physics may still be computed, its outcome is
 dropped), so the per-world counters of ``EnvState`` are exactly the round's.
 
-Policies (``make_policy``) map ``(params, key, EnvState) -> action (B, 3) int32
-[rotation, row, col]`` on the global heightmaps (one motion per attempt):
+Policies (``make_policy``) plan one attempt per world, ``(params, key, env, EnvState) ->
+env.Attempt`` (grasp pose, where its approach starts, motions).  All but the GG-CNN ones choose
+an action ``(B, 3) int32 [rotation, row, col]`` on the global heightmaps (1 motion):
 
 * ``gdnet``: greedy argmax of GDNet's Q over (rotation, row, col) -- no exploration.  Its
   ``params`` are the online ``{"params", "batch_stats"}`` of a stage-1 checkpoint.
@@ -23,16 +24,22 @@ Policies (``make_policy``) map ``(params, key, EnvState) -> action (B, 3) int32
   grasp depth (height > surface - ``depth_below_surface``, and an object cell); choose the axis
   with the narrowest run that fits in ``finger_stroke`` (the narrowest one if none fits), and
   move the grasp centre to the middle of that run.
+* ``ggcnn``: GG-CNN on the raw depth image of the global camera, 1 motion (the paper's GG-CNN
+  baseline).  ``ggcnn-close``: move the camera 25 cm above the ``highest`` cell, take a depth
+  image there and grasp at GG-CNN's best grasp, 2 motions.  Both need a GG-CNN trained by
+  ``train.py --stage ggcnn``.
 
 Metrics (``summarize``; per group, and ``overall`` pooled over every round of every group):
 
 * grasp success rate = successful grasps / grasp attempts;
 * scene clearing rate = cleared rounds / rounds, a round is *cleared* when every one of its
   objects was grasped (objects pushed off the workspace do not count as cleared);
-* motion number = camera-or-gripper motions / successfully grasped objects (1 per direct grasp);
+* motion number = camera-or-gripper motions / successfully grasped objects (1 per direct grasp,
+  2 per grasp after a viewpoint move);
 * picks per hour = successful grasps / hours of modelled robot time (``MotionTimeModel``).
 
-Diagnostics beside them: attempts per round, the share of attempts aimed at an object cell
+Diagnostics beside them: the share of attempts that moved the camera to a viewpoint first
+(``viewpoint_rate``), attempts per round, the share of attempts aimed at an object cell
 (``on_object_rate``), objects lost (left the table without a grasp), physics errors.
 
 Reproducible: group ``k`` uses ``jax.random.fold_in(PRNGKey(seed), k)``, so adding or removing
@@ -55,10 +62,12 @@ import numpy as np
 from flax import struct
 
 from vags_jax.config import Config, to_dict
-from vags_jax.env import EnvState, VagsEnv, where_worlds
+from vags_jax import camera
+from vags_jax.config import benchmark_groups
+from vags_jax.env import Attempt, EnvState, VagsEnv, where_worlds
 
-POLICIES = ("gdnet", "random", "highest", "heuristic")
-DEFAULT_GROUPS = tuple(range(1, 11))
+POLICIES = ("gdnet", "ggcnn", "ggcnn-close", "random", "highest", "heuristic")
+DEFAULT_GROUPS = tuple(range(1, 11))  # the paper's; the config's ``benchmark`` section decides
 DEFAULT_ROUNDS = 50
 
 
@@ -76,12 +85,14 @@ class MotionTimeModel:
                 + attempts * (close_s + lift_s)            # closing the jaw; lift overhead
                 + successes * place_s                      # to the bin, release, back
 
-    ``travel`` is what ``EnvState.travel`` accumulates: approach (capture pose -> 15 cm above the
-    grasp point), descend, lift.  ``return_travel`` (failed attempts only) is the straight line
+    ``travel`` is what ``EnvState.travel`` accumulates: the camera moves before the grasp (global
+    pose -> viewpoint, for attempts that adjust the viewpoint), the approach (last capture pose
+    -> 15 cm above the grasp point), descend, lift.  ``return_travel`` (failed attempts only) is the straight line
     from the lifted gripper back to the global capture pose; after a success ``place_s`` covers
     the trip to the bin and back.  ``lift_s`` is the fixed part of a lift (grip check, slow
     start with a load) on top of its distance / speed.  Defaults are round numbers for a UR5 +
-    RG2 cell moving at 0.5 m/s; they are not measured on a robot.
+    RG2 cell moving at 0.5 m/s; they are not measured on a robot.  The values come from the
+    config's ``benchmark`` section (``from_config``).
     """
 
     speed: float = 0.5  # m/s, Cartesian gripper speed
@@ -89,6 +100,13 @@ class MotionTimeModel:
     close_s: float = 0.5  # s per attempt: closing the gripper
     lift_s: float = 0.5  # s per attempt: fixed lift overhead
     place_s: float = 2.0  # s per success: carry to the bin, release, return to the capture pose
+
+    @staticmethod
+    def from_config(cfg: Config) -> "MotionTimeModel":
+        """The time model of the config's ``benchmark`` section."""
+        b = cfg.benchmark
+        return MotionTimeModel(speed=b.speed, capture_s=b.capture_s, close_s=b.close_s, lift_s=b.lift_s,
+                               place_s=b.place_s)
 
     def __post_init__(self):
         if not self.speed > 0:
@@ -115,7 +133,8 @@ class RoundOutcomes:
     n_objects: objects at the start; attempts / successes / motions: counts; travel: commanded
     gripper travel (m); return_travel: return moves after failed attempts (m); remaining:
     objects still on the table at the end; on_object: attempts aimed at an object cell of the
-    global height map (diagnostic: a grasp aimed at bare table cannot succeed); error: physics
+    global height map (diagnostic: a grasp aimed at bare table cannot succeed); viewpoints:
+    attempts that moved the camera to a viewpoint before grasping (motions > 1); error: physics
     failure (NaN / tunnelling) ended the round; overflow: a warp contact buffer was full at some step (results unreliable).
     """
 
@@ -127,6 +146,7 @@ class RoundOutcomes:
     return_travel: Any
     remaining: Any
     on_object: Any
+    viewpoints: Any
     error: Any
     overflow: Any
 
@@ -176,6 +196,7 @@ def summarize(out: RoundOutcomes, time_model: MotionTimeModel = MotionTimeModel(
         "robot_seconds": seconds,
         "attempts_per_round": _ratio(attempts, rounds),
         "on_object_rate": _ratio(int(np.sum(out.on_object)), attempts),
+        "viewpoint_rate": _ratio(int(np.sum(out.viewpoints)), attempts),
         "objects_lost": int(np.sum(out.lost)),
         "physics_errors": int(np.sum(out.error)),
         "buffer_overflows": int(np.sum(out.overflow)),
@@ -189,14 +210,55 @@ def summarize(out: RoundOutcomes, time_model: MotionTimeModel = MotionTimeModel(
 class Policy:
     """A grasping policy for the benchmark.
 
-    act: ``(params, key, state: EnvState) -> action (B, 3) int32 [rotation, row, col]``, pure
-    and jittable; ``params`` is a pytree passed to the compiled loop as an argument (network
-    weights), or None.
+    plan: ``(params, key, env: VagsEnv, state: EnvState) -> Attempt``, pure and jittable: per
+    world, the grasp (world position, yaw), where its approach starts and how many motions the
+    attempt takes (``vags_jax.env.Attempt``: a grasp planned on the global view is 1 motion, one
+    after a viewpoint move 2).  ``params``: a pytree passed to the compiled loop as an argument
+    (network weights), or None.  ``act``: for policies that choose a heightmap action on the
+    global view, ``(params, key, state) -> action (B, 3) int32 [rotation, row, col]`` (``plan``
+    executes it, 1 motion); None for the others.
     """
 
     name: str
-    act: Callable
+    plan: Callable
     params: Any = None
+    act: Optional[Callable] = None
+
+
+def heightmap_policy(name: str, act: Callable, params: Any = None) -> Policy:
+    """A policy acting on the global heightmaps: ``act(params, key, state) -> (B, 3) [rotation,
+    row, col]``, executed as a direct grasp (``VagsEnv.grasp_pose``, 1 motion)."""
+
+    def plan(params, key, env: VagsEnv, state: EnvState) -> Attempt:
+        action = act(params, key, state)
+        position, yaw = env.grasp_pose(state, action[:, 1:], action[:, 0])
+        return env.direct_attempt(position, yaw)
+
+    return Policy(name, plan, params, act)
+
+
+def ggcnn_plan(cfg: Config, close: bool) -> Callable:
+    """GG-CNN planners.  ``close=False`` (policy ``ggcnn``, the paper's GG-CNN baseline): GG-CNN
+    on the raw depth image of the fixed global camera, 1 motion.  ``close=True`` (``ggcnn-close``):
+    move the camera to the viewpoint ``camera.viewpoint_height`` above the highest object cell of
+    the global heightmap (``_highest_pixel``), take the raw depth image there, grasp at GG-CNN's
+    best grasp; 2 motions.  ``params`` = ``{"params": ...}`` of GG-CNN."""
+    from vags_jax.ggcnn_grasp import predict_grasp
+    from vags_jax.networks.ggcnn import GGCNN
+
+    model = GGCNN()
+
+    def plan(params, key, env: VagsEnv, state: EnvState) -> Attempt:
+        B = state.n_worlds
+        pose = env.viewpoint_pose(state, _highest_pixel(state.height, cfg)) if close else env.global_poses(B)
+        image = env.camera_image(state.sim, pose, key)
+        grasp, _ = predict_grasp(model, params, image.depth, pose, cfg.camera, cfg.ggcnn,
+                                 cfg.grasp.depth_below_surface)
+        if close:
+            return env.viewpoint_attempt(grasp.position, grasp.yaw, pose)
+        return env.direct_attempt(grasp.position, grasp.yaw)
+
+    return plan
 
 
 def _object_mask(height: jax.Array, threshold: float) -> jax.Array:
@@ -319,17 +381,23 @@ def gdnet_act(cfg: Config) -> Callable:
     return act
 
 
-def make_policy(name: str, cfg: Config, gdnet_variables: Any = None) -> Policy:
+def make_policy(name: str, cfg: Config, gdnet_variables: Any = None, ggcnn_params: Any = None) -> Policy:
     """Policy by name (``POLICIES``); ``gdnet`` needs ``gdnet_variables`` ({"params",
-    "batch_stats"}, e.g. from ``load_gdnet``)."""
+    "batch_stats"}, e.g. from ``load_gdnet``); ``ggcnn`` / ``ggcnn-close`` need
+    ``ggcnn_params`` ({"params"}, e.g. from ``ggcnn_stage.load_ggcnn``)."""
     if name not in POLICIES:
         raise ValueError(f"unknown policy {name!r}; choose one of {', '.join(POLICIES)}")
     if name == "gdnet":
         if gdnet_variables is None:
             raise ValueError("policy 'gdnet' needs trained GDNet variables: evaluate a run "
                              "directory (eval.py --run RUN) or pass gdnet_variables")
-        return Policy("gdnet", gdnet_act(cfg), gdnet_variables)
-    return Policy(name, {"random": random_act, "highest": highest_act, "heuristic": heuristic_act}[name](cfg))
+        return heightmap_policy("gdnet", gdnet_act(cfg), gdnet_variables)
+    if name in ("ggcnn", "ggcnn-close"):
+        if ggcnn_params is None:
+            raise ValueError(f"policy {name!r} needs trained GG-CNN parameters: evaluate a run with a GG-CNN "
+                             f"(train.py --stage ggcnn --out RUN, then eval.py --run RUN) or pass ggcnn_params")
+        return Policy(name, ggcnn_plan(cfg, close=name == "ggcnn-close"), ggcnn_params)
+    return heightmap_policy(name, {"random": random_act, "highest": highest_act, "heuristic": heuristic_act}[name](cfg))
 
 
 # ----------------------------------------------------------------------------- checkpoint
@@ -367,6 +435,7 @@ class _Carry:
     done: jax.Array  # (B,) bool
     return_travel: jax.Array  # (B,) float32
     on_object: jax.Array  # (B,) int32
+    viewpoints: jax.Array  # (B,) int32
     key: jax.Array
     t: jax.Array  # () int32
 
@@ -406,14 +475,15 @@ class Evaluator:
         self._reset = jax.jit(self.env.step_reset)  # the same program as VagsEnv.reset
         self._start = np.asarray(cfg.camera.global_position, np.float32)
 
-    def _rounds_impl(self, act: Callable, params, key: jax.Array, s0: EnvState):
+    def _rounds_impl(self, plan: Callable, params, key: jax.Array, s0: EnvState):
         """Plays B fresh rounds to their end: key (2,), s0 from ``VagsEnv.reset`` -> RoundOutcomes
         of (B,) arrays.  (The reset is its own compiled program, the same as ``VagsEnv.reset``'s, so
         that a persistent compilation cache can share it with training.)"""
         env, cfg = self.env, self.cfg
         g, tz = cfg.grasp, cfg.workspace.table_z
         B = s0.n_worlds
-        budget = jnp.max(env.max_attempts(s0.sim.n_objects))
+        extra = cfg.benchmark.max_attempts_extra
+        budget = jnp.max(env.max_attempts(s0.sim.n_objects, extra))
         noise = cfg.camera.noise.enabled
 
         def cond(c: _Carry):
@@ -421,30 +491,36 @@ class Evaluator:
 
         def body(c: _Carry):
             key, k_act, k_obs = jax.random.split(c.key, 3)
-            action = act(params, k_act, c.env)
-            pixel, rot = action[:, 1:], action[:, 0]
-            position, _ = env.grasp_pose(c.env, pixel, rot)
-            s2, res = env.step_grasp(c.env, pixel, rot, k_obs if noise else None)
+            attempt = plan(params, k_act, env, c.env)
+            s2, res = env.step_attempt(c.env, attempt, k_obs if noise else None)
             # Finished worlds keep their state: their outcome is ignored.
             keep = c.done
             s2 = where_worlds(keep, c.env, s2)
+            position = attempt.position
             lifted = jnp.stack([position[:, 0], position[:, 1],
                                 jnp.maximum(position[:, 2], tz + g.min_height_above_table) + g.lift_height], 1)
             back = jnp.linalg.norm(lifted - self._start, axis=1)
             ret = c.return_travel + jnp.where(keep | res.success, 0.0, back)
-            aimed = c.env.height[jnp.arange(B), pixel[:, 0], pixel[:, 1]] > cfg.exploration.height_threshold
+            pixel = camera.world_xy_to_pixel(position[:, :2], cfg.workspace)
+            inside = camera.in_workspace(pixel, cfg.workspace)
+            pixel = jnp.clip(pixel, 0, cfg.workspace.heightmap_px - 1)
+            aimed = inside & (c.env.height[jnp.arange(B), pixel[:, 0], pixel[:, 1]] > cfg.exploration.height_threshold)
             on_obj = c.on_object + (aimed & ~keep).astype(jnp.int32)
-            done = keep | env.round_over(s2) | s2.sim.error
-            return _Carry(env=s2, done=done, return_travel=ret, on_object=on_obj, key=key, t=c.t + 1)
+            views = c.viewpoints + ((attempt.motions > 1) & ~keep).astype(jnp.int32)
+            done = keep | env.round_over(s2, extra) | s2.sim.error
+            return _Carry(env=s2, done=done, return_travel=ret, on_object=on_obj, viewpoints=views, key=key,
+                          t=c.t + 1)
 
-        c0 = _Carry(env=s0, done=env.round_over(s0) | s0.sim.error,
-                    return_travel=jnp.zeros((B,), jnp.float32), on_object=jnp.zeros((B,), jnp.int32), key=key, t=jnp.zeros((), jnp.int32))
+        zi = jnp.zeros((B,), jnp.int32)
+        c0 = _Carry(env=s0, done=env.round_over(s0, extra) | s0.sim.error,
+                    return_travel=jnp.zeros((B,), jnp.float32), on_object=zi, viewpoints=zi, key=key,
+                    t=jnp.zeros((), jnp.int32))
         c = jax.lax.while_loop(cond, body, c0)
         s = c.env
         out = RoundOutcomes(
             n_objects=s.sim.n_objects, attempts=s.attempts, successes=s.successes, motions=s.motions,
             travel=s.travel, return_travel=c.return_travel, remaining=env.n_remaining(s), on_object=c.on_object,
-            error=s.sim.error, overflow=s.sim.overflow)
+            viewpoints=c.viewpoints, error=s.sim.error, overflow=s.sim.overflow)
         return out
 
     def run_group(self, policy: Policy, key, n_objects: int, rounds: int) -> RoundOutcomes:
@@ -456,9 +532,9 @@ class Evaluator:
         k_reset, k_loop = jax.random.split(key)
         self.env.prepare(rounds)
         s0 = self._reset(k_reset, jnp.full((rounds,), n_objects, jnp.int32))  # errors: counted, not raised
-        fn = self._compiled.get(policy.act)
+        fn = self._compiled.get(policy.plan)
         if fn is None:
-            fn = self._compiled[policy.act] = jax.jit(lambda p, k, s: self._rounds_impl(policy.act, p, k, s))
+            fn = self._compiled[policy.plan] = jax.jit(lambda p, k, s: self._rounds_impl(policy.plan, p, k, s))
         out = jax.tree.map(np.asarray, jax.device_get(fn(policy.params, k_loop, s0)))
         if out.error.any() or out.overflow.any():
             warnings.warn(
@@ -468,16 +544,21 @@ class Evaluator:
         return out
 
 
-def evaluate(cfg: Config, policy: Policy, groups: Sequence[int] = DEFAULT_GROUPS,
-             rounds: int = DEFAULT_ROUNDS, seed: Optional[int] = None,
-             time_model: MotionTimeModel = MotionTimeModel(), evaluator: Optional[Evaluator] = None,
+def evaluate(cfg: Config, policy: Policy, groups: Optional[Sequence[int]] = None,
+             rounds: Optional[int] = None, seed: Optional[int] = None,
+             time_model: Optional[MotionTimeModel] = None, evaluator: Optional[Evaluator] = None,
              log: Optional[Callable[[str], None]] = None) -> dict:
     """The whole benchmark -> report dict (JSON-ready).
 
+    ``groups``, ``rounds`` and ``time_model`` default to the config's ``benchmark`` section
+    (``config.benchmark_groups``, ``benchmark.rounds``, ``MotionTimeModel.from_config``).
     Keys: ``policy``, ``seed``, ``rounds``, ``groups``, ``time_model``, ``groups_metrics``
     (list of ``summarize`` dicts with ``n_objects`` and ``wall_s``), ``overall`` (pooled),
     ``outcomes`` ({k: RoundOutcomes.to_json()}).  ``seed`` defaults to ``cfg.seed``.
     """
+    groups = benchmark_groups(cfg) if groups is None else groups
+    rounds = cfg.benchmark.rounds if rounds is None else rounds
+    time_model = MotionTimeModel.from_config(cfg) if time_model is None else time_model
     groups = check_groups(groups, cfg, rounds)
     seed = cfg.seed if seed is None else int(seed)
     ev = evaluator if evaluator is not None else Evaluator(cfg)
@@ -498,7 +579,7 @@ def evaluate(cfg: Config, policy: Policy, groups: Sequence[int] = DEFAULT_GROUPS
     overall = summarize(RoundOutcomes.concatenate(parts), time_model)
     return {
         "policy": policy.name, "seed": seed, "rounds": rounds, "groups": list(groups),
-        "max_attempts": f"2 * objects + {cfg.stage1.max_attempts_extra}",
+        "max_attempts": f"2 * objects + {cfg.benchmark.max_attempts_extra}",
         "time_model": dataclasses.asdict(time_model),
         "groups_metrics": per_group, "overall": overall, "outcomes": raw,
     }
@@ -518,13 +599,14 @@ def _num(x, fmt="{:.2f}") -> str:
 def format_table(report: dict) -> str:
     """Markdown table: one row per group and one for the pooled overall."""
     head = ("| objects | rounds | attempts | successes | grasp success % | clearing % | motion number "
-            "| picks/hour | attempts/round | on object % | lost | errors |")
+            "| picks/hour | viewpoint % | attempts/round | on object % | lost | errors |")
     rows = [head, "|" + "|".join(["---:"] * (head.count("|") - 1)) + "|"]
 
     def row(name, m):
         return (f"| {name} | {m['rounds']} | {m['attempts']} | {m['successes']} | "
                 f"{_pct(m['grasp_success_rate'])} | {_pct(m['clearing_rate'])} | {_num(m['motion_number'])} | "
-                f"{_num(m['picks_per_hour'], '{:.0f}')} | {_num(m['attempts_per_round'], '{:.1f}')} | "
+                f"{_num(m['picks_per_hour'], '{:.0f}')} | {_pct(m.get('viewpoint_rate'))} | "
+                f"{_num(m['attempts_per_round'], '{:.1f}')} | "
                 f"{_pct(m['on_object_rate'])} | {m['objects_lost']} | {m['physics_errors']} |")
 
     for m in report["groups_metrics"]:
@@ -547,6 +629,7 @@ def save_report(report: dict, path: str, cfg: Optional[Config] = None, extra: Op
 
 __all__ = [
     "POLICIES", "DEFAULT_GROUPS", "DEFAULT_ROUNDS", "MotionTimeModel", "RoundOutcomes", "Policy", "Evaluator",
+    "heightmap_policy", "ggcnn_plan",
     "summarize", "make_policy", "random_act", "highest_act", "heuristic_act", "gdnet_act", "min_width_grasp",
     "load_gdnet", "check_groups", "evaluate", "format_table", "save_report",
 ]

@@ -1,0 +1,145 @@
+"""Attempts with a viewpoint move: close views, motions, travel, and the GG-CNN policies.
+
+Scenes are placed by hand (``Simulator.set_objects``) with two fixed blocks of the first
+benchmark: a 10 cm tall one (``cuboid_tall``) and a 2.5 cm flat one (``cube_half``), seen by
+the tiny preset's 128 x 96 camera without sensor noise.
+"""
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from vags_jax import camera
+from vags_jax import config as C
+from vags_jax.env import VagsEnv, select_attempt
+
+TALL, FLAT = 0, 1
+
+
+@pytest.fixture(scope="module")
+def cfg():
+    return C.replace(C.tiny(), **{
+        "scene.shapes": ("cuboid_tall", "cube_half"), "scene.copies_per_shape": 1,
+        "scene.max_objects": 2, "stage1.max_objects": 2, "scene.placement": "scatter",
+        "scene.colour_jitter": 0.0, "camera.noise.enabled": False,
+    })
+
+
+@pytest.fixture(scope="module")
+def env(cfg):
+    e = VagsEnv(cfg)
+    e.prepare(2)
+    return e
+
+
+def _scene(env, pos, active):
+    """B worlds with objects at pos (B, 2, 3) (unrotated), active (B, 2); settled, observed."""
+    pos = np.asarray(pos, np.float32)
+    B = pos.shape[0]
+    state = env.reset(jax.random.PRNGKey(0), np.ones(B, np.int64))
+    quat = np.tile(np.array([1.0, 0, 0, 0], np.float32), (B, 2, 1))
+    sim = env.sim.settle(env.sim.set_objects(state.sim, pos, quat, np.asarray(active)), 0.2)
+    return env.with_observation(state.replace(sim=sim))
+
+
+def _cells(cfg, x0, x1, y0, y1):
+    """Heightmap cells whose centres lie inside [x0, x1] x [y0, y1] -> (rows, cols)."""
+    rc = np.stack(np.meshgrid(np.arange(cfg.workspace.heightmap_px), np.arange(cfg.workspace.heightmap_px),
+                              indexing="ij"), -1).reshape(-1, 2)
+    xy = np.asarray(camera.pixel_to_world_xy(rc, cfg.workspace))
+    inside = (xy[:, 0] > x0) & (xy[:, 0] < x1) & (xy[:, 1] > y0) & (xy[:, 1] < y1)
+    return rc[inside, 0], rc[inside, 1]
+
+
+def test_close_view_sees_the_top_that_the_global_view_leaves_in_shadow(cfg, env):
+    # The global camera looks from -y, 34 deg off vertical: the tall block (top 10 cm, back
+    # face at y = 0.025) hides the table behind it up to y ~ 0.089 at 2.5 cm height, so the
+    # whole top of the flat block behind it (y 0.035..0.085) is in its shadow.
+    state = _scene(env, [[[0.0, 0.0, 0.05], [0.0, 0.06, 0.0125]]], [[True, True]])
+    rows, cols = _cells(cfg, -0.018, 0.018, 0.042, 0.078)
+    assert rows.size >= 4
+    g = np.asarray(state.height[0])
+    assert g[rows, cols].max() < 0.005, "the flat block's top should be unseen from the global pose"
+    assert np.asarray(env.sim.object_positions(state.sim))[0, FLAT, 2] == pytest.approx(0.0125, abs=2e-3)
+    # Move the camera above the flat block's centre cell: 25 cm above the (empty) global surface.
+    pixel = jnp.asarray(camera.world_xy_to_pixel(jnp.array([[0.0, 0.06]]), cfg.workspace))
+    pose = env.viewpoint_pose(state, pixel)
+    assert np.allclose(np.asarray(pose[0, :3, 2]), [0, 0, -1], atol=1e-6)  # looking straight down
+    _, close = env.observe(state.sim, pose)
+    seen = np.asarray(close[0])[rows, cols]
+    assert np.all(np.abs(seen - 0.025) < 0.004), seen
+    # The raw close image shows the top 25 - 2.5 cm below the camera at its centre.
+    image = env.camera_image(state.sim, pose)
+    h, w = cfg.camera.height, cfg.camera.width
+    centre = np.asarray(image.depth[0, h // 2 - 2:h // 2 + 2, w // 2 - 2:w // 2 + 2])
+    assert np.allclose(centre, cfg.camera.viewpoint_height - 0.025, atol=2e-3)
+    assert image.rgb.shape == (1, h, w, 3) and image.rgb.dtype == jnp.uint8
+
+
+def test_viewpoint_attempt_counts_two_motions_and_starts_its_approach_at_the_viewpoint(cfg, env):
+    # Two worlds, each an isolated flat block; world 0 moves the camera first, world 1 grasps
+    # from the global view; both in one jitted call.
+    xy = np.array([[0.08, -0.05], [-0.06, 0.07]], np.float32)
+    pos = np.zeros((2, 2, 3), np.float32)
+    pos[:, FLAT, :2], pos[:, FLAT, 2] = xy, 0.0125
+    state = _scene(env, pos, [[False, True], [False, True]])
+    grasp = jnp.asarray(np.concatenate([xy, np.full((2, 1), 0.0125 - cfg.grasp.depth_below_surface)], 1))
+    yaw = jnp.zeros((2,))
+    pixel = camera.world_xy_to_pixel(jnp.asarray(xy), cfg.workspace)
+    view = env.viewpoint_pose(state, pixel)
+    use_view = jnp.array([True, False])
+    attempt = select_attempt(use_view, env.viewpoint_attempt(grasp, yaw, view), env.direct_attempt(grasp, yaw))
+    s2, res = jax.jit(env.step_attempt)(state, attempt)
+    assert np.asarray(s2.motions).tolist() == [2, 1]
+    assert np.asarray(s2.attempts).tolist() == [1, 1]
+    assert np.asarray(res.success).tolist() == [True, True]
+    # The approach runs from where the last image was taken to 15 cm above the grasp point.
+    g = cfg.grasp
+    zg = np.maximum(np.asarray(grasp[:, 2]), cfg.workspace.table_z + g.min_height_above_table)
+    pre = np.concatenate([xy, (zg + g.approach_height)[:, None]], 1)
+    view_xyz = np.asarray(view[0, :3, 3])
+    glob = np.asarray(cfg.camera.global_position)
+    assert view_xyz[2] == pytest.approx(cfg.camera.viewpoint_height + np.asarray(state.height)[0, pixel[0, 0], pixel[0, 1]])
+    approach = np.asarray(res.approach)
+    assert approach[0] == pytest.approx(np.linalg.norm(pre[0] - view_xyz), rel=1e-5)
+    assert approach[1] == pytest.approx(np.linalg.norm(pre[1] - glob), rel=1e-5)
+    # Travel: the camera move (global -> viewpoint) + approach + descend + lift.
+    move = np.linalg.norm(view_xyz - glob)
+    expect = approach + g.approach_height + g.lift_height + np.array([move, 0.0])
+    assert np.allclose(np.asarray(s2.travel), expect, rtol=1e-5)
+
+
+def test_ggcnn_close_policy_counts_a_viewpoint_per_attempt(cfg):
+    """The benchmark loop with ``ggcnn-close`` (an untrained GG-CNN: the mechanics, not the
+    skill): every attempt moves the camera, so motions = 2 x attempts and viewpoint share 1."""
+    from vags_jax import evaluate as E
+    from vags_jax.networks.ggcnn import init_ggcnn
+
+    ecfg = C.replace(cfg, **{"benchmark.max_attempts_extra": 1})
+    params = init_ggcnn(jax.random.PRNGKey(3), size=ecfg.ggcnn.input_size)
+    policy = E.make_policy("ggcnn-close", ecfg, ggcnn_params=params)
+    out = E.Evaluator(ecfg).run_group(policy, jax.random.PRNGKey(1), 2, 2)
+    assert (out.attempts >= 1).all() and (out.attempts <= 2 * 2 + 1).all()
+    assert (out.motions == 2 * out.attempts).all()
+    assert (out.viewpoints == out.attempts).all()
+    m = E.summarize(out)
+    assert m["viewpoint_rate"] == 1.0
+
+
+def test_ggcnn_policies_need_parameters(cfg):
+    from vags_jax import evaluate as E
+
+    for name in ("ggcnn", "ggcnn-close"):
+        with pytest.raises(ValueError, match="needs trained GG-CNN parameters"):
+            E.make_policy(name, cfg)
+
+
+def test_ggcnn_grasp_refuses_a_wrong_depth_shape(cfg):
+    from vags_jax.ggcnn_grasp import predict_grasp
+    from vags_jax.networks.ggcnn import GGCNN, init_ggcnn
+
+    params = init_ggcnn(jax.random.PRNGKey(0), size=cfg.ggcnn.input_size)
+    pose = jnp.eye(4)[None]
+    with pytest.raises(ValueError, match=r"\(B, H, W\)"):
+        predict_grasp(GGCNN(), params, jnp.ones((cfg.camera.height, cfg.camera.width)), pose, cfg.camera,
+                      cfg.ggcnn, 0.03)
