@@ -15,7 +15,7 @@ from vags_jax.stages import Stage1State
 def _outcomes(**kw):
     base = dict(n_objects=[2, 2, 3], attempts=[2, 5, 4], successes=[2, 1, 3], motions=[2, 5, 4],
                 travel=[1.0, 2.0, 1.5], return_travel=[0.0, 1.2, 0.4], remaining=[0, 0, 0], on_object=[2, 4, 4],
-                error=[False, False, False], overflow=[False, False, False])
+                viewpoints=[0, 0, 0], error=[False, False, False], overflow=[False, False, False])
     base.update(kw)
     return E.RoundOutcomes(**{k: np.asarray(v) for k, v in base.items()})
 
@@ -38,6 +38,11 @@ def test_metrics_hand_computed():
     assert m["on_object_rate"] == pytest.approx(10 / 11)
     fast = E.summarize(_outcomes(), E.MotionTimeModel(speed=1.0, capture_s=0, close_s=0, lift_s=0, place_s=0))
     assert fast["picks_per_hour"] == pytest.approx(6 * 3600 / 6.1)
+    assert m["viewpoint_rate"] == 0.0
+    # One attempt of round 2 moved the camera first: one more motion and 0.3 m more travel.
+    v = E.summarize(_outcomes(motions=[2, 6, 4], viewpoints=[0, 1, 0], travel=[1.0, 2.3, 1.5]))
+    assert v["motion_number"] == pytest.approx(12 / 6) and v["viewpoint_rate"] == pytest.approx(1 / 11)
+    assert v["robot_seconds"] == pytest.approx(seconds + 0.5 + 0.3 / 0.5)
 
 
 def test_metrics_pool_and_edge_cases():

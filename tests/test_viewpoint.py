@@ -143,3 +143,25 @@ def test_ggcnn_grasp_refuses_a_wrong_depth_shape(cfg):
     with pytest.raises(ValueError, match=r"\(B, H, W\)"):
         predict_grasp(GGCNN(), params, jnp.ones((cfg.camera.height, cfg.camera.width)), pose, cfg.camera,
                       cfg.ggcnn, 0.03)
+
+
+def test_decision_picks_each_branch_on_hand_set_q_maps():
+    from vags_jax.decision import decide
+
+    B, R, H, W = 3, 4, 6, 5
+    qg = np.zeros((B, R, H, W), np.float32)
+    qv = np.zeros((B, H, W), np.float32)
+    qg[0, 2, 4, 1] = 1.9   # world 0: confident grasp -> direct at (2, 4, 1)
+    qg[1, 1, 0, 3] = 1.5   # world 1: below the threshold -> viewpoint at VANet's argmax
+    qv[1, 5, 2] = 0.7
+    qg[2, 3, 1, 1] = 1.78  # world 2: equal to the threshold is not above it -> viewpoint
+    qv[2, 0, 4] = 0.2
+    d = decide(jnp.asarray(qg), jnp.asarray(qv), 1.78)
+    assert np.asarray(d.direct).tolist() == [True, False, False]
+    assert np.asarray(d.grasp).tolist()[0] == [2, 4, 1]
+    assert np.asarray(d.view).tolist()[1:] == [[5, 2], [0, 4]]
+    assert np.allclose(np.asarray(d.q_max), [1.9, 1.5, 1.78])
+    assert not np.asarray(decide(jnp.asarray(qg), jnp.asarray(qv), np.inf).direct).any()
+    assert np.asarray(decide(jnp.asarray(qg), jnp.asarray(qv), -np.inf).direct).all()
+    with pytest.raises(ValueError, match=r"VANet Q must be \(B, H, W\)"):
+        decide(jnp.asarray(qg), jnp.asarray(qv[:, :-1]), 1.0)
