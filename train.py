@@ -1,12 +1,16 @@
 #!/usr/bin/env python3
-"""Train VAGS stage 1 (GDNet) in batched MJX worlds.
+"""Train VAGS stage 1 (GDNet) in batched MJX worlds, or GG-CNN on grasps labelled in them.
 
     python train.py --config tiny --out runs/tiny          # CPU, a few minutes
     python train.py --config gpu --out runs/gpu            # one H100/H200, impl "warp"
     python train.py --config gpu --set exploration.daes=false --out runs/no_daes
     python train.py --out runs/tiny --resume               # continue exactly where it stopped
+    python train.py --config tiny --stage ggcnn --out runs/tiny   # GG-CNN (vags_jax.ggcnn_stage)
 
 Writes into --out: config.json, metrics.jsonl (one line per iteration), checkpoints/ (orbax).
+--stage ggcnn makes (or reuses, from --data-dir) its physics-labelled views, trains GG-CNN,
+measures its held-out grasp success in physics and writes only --out/ggcnn/ (checkpoints/,
+config.json, metrics.json), so stage 1 and GG-CNN can share a run directory in either order.
 
 Every input is checked before anything is compiled or written: a bad flag, --set value or run
 directory ends with one line on stderr and exit code 2.  Nothing is written to --out until the
@@ -33,7 +37,9 @@ from vags_jax import cli
 PROG = "train.py"
 # What a run directory may hold besides its checkpoints, for --out to be reused by a fresh run
 # when it has no checkpoint yet (a run that failed before its first checkpoint).
-RUN_LEFTOVERS = ("config.json", "metrics.jsonl", "checkpoints")
+# (``ggcnn``: GG-CNN's own directory, written by --stage ggcnn, which stage 1 never reads.)
+RUN_LEFTOVERS = ("config.json", "metrics.jsonl", "checkpoints", "ggcnn")
+STAGES = ("gdnet", "ggcnn")
 # Metrics that must stay finite; the run stops (exit code 1) when one is not.
 FINITE_METRICS = ("loss", "td_abs", "q_max", "q_executed")
 
@@ -44,12 +50,19 @@ def parse_args(argv=None):
     p.add_argument("--set", nargs="*", default=[], metavar="SECTION.FIELD=VALUE",
                    help="config overrides, e.g. stage1.iterations=200 net.trunk=small")
     p.add_argument("--out", required=True, help="run directory")
+    p.add_argument("--stage", choices=STAGES, default="gdnet",
+                   help="gdnet: stage 1, GDNet (default); ggcnn: GG-CNN on physics-labelled views, "
+                        "written to --out/ggcnn")
+    p.add_argument("--data-dir", default=None,
+                   help="--stage ggcnn: where its labelled views are cached (default "
+                        "~/.cache/vags_jax/ggcnn); a run with the same config reuses them")
     p.add_argument("--resume", action="store_true",
                    help="continue the run in --out from its last checkpoint (only stage1.iterations may "
                         "change, and only upwards; the new total is written to its config.json)")
     p.add_argument("--chunk", type=cli.int_in(1, 10**6), default=None,
-                   help="iterations per jitted chunk (metrics/progress/checkpoint granularity); default: auto")
-    p.add_argument("--checkpoint-every", type=cli.int_in(1, 10**6), default=1,
+                   help="iterations (--stage ggcnn: updates) per jitted chunk (metrics/progress/checkpoint "
+                        "granularity); default: auto")
+    p.add_argument("--checkpoint-every", type=cli.int_in(1, 10**6), default=None,
                    help="checkpoint every N chunks (default 1)")
     p.add_argument("--max-minutes", type=cli.positive_float(10**6), default=None,
                    help="stop (with a checkpoint) once this much wall time has passed")
@@ -77,6 +90,109 @@ def check_fresh_out(out: str) -> None:
             raise ValueError(f"--out {out!r} is a non-empty directory that is not a run of train.py "
                              f"(it holds {other[:3]}); choose a new or empty directory")
     cli._check_parent_writable(os.path.join(out, "config.json"), "--out")
+
+
+def check_ggcnn_out(out: str) -> None:
+    """--out for --stage ggcnn: a new or empty directory, or a run directory (stage 1's files
+    are left alone) that holds no GG-CNN checkpoint yet."""
+    if not out:
+        raise ValueError("--out must not be empty")
+    if os.path.exists(out) and not os.path.isdir(out):
+        raise ValueError(f"--out {out!r} is a file, not a directory; choose a run directory")
+    if os.path.isdir(out):
+        from vags_jax import checkpoint, ggcnn_stage
+
+        gdir = ggcnn_stage.ggcnn_dir(out)
+        if os.path.exists(gdir) and not os.path.isdir(gdir):
+            raise ValueError(f"{gdir} is a file, not GG-CNN's directory; move it away or choose another --out")
+        steps = checkpoint.checkpoint_steps(gdir) if os.path.isdir(gdir) else []
+        if steps:
+            raise ValueError(f"{out} already holds a GG-CNN ({gdir}, checkpoint {steps[-1]}); choose another "
+                             f"--out, or delete {gdir} to train it again")
+        other = sorted(n for n in os.listdir(out) if not n.startswith(".") and n not in RUN_LEFTOVERS
+                       and not (n.startswith("eval_") and n.endswith(".json")))
+        if other:
+            raise ValueError(f"--out {out!r} is a non-empty directory that is not a run of train.py "
+                             f"(it holds {other[:3]}); choose a new or empty directory")
+    cli._check_parent_writable(os.path.join(out, "ggcnn", "config.json"), "--out")
+
+
+def prepare_ggcnn(args) -> SimpleNamespace:
+    """--stage ggcnn: the config, --out and --data-dir, checked before anything is built."""
+    from vags_jax import config as C
+
+    if args.resume:
+        raise ValueError("--resume continues a stage-1 (gdnet) run; --stage ggcnn trains GG-CNN from "
+                         "the start (its labelled views are cached): drop --resume")
+    given = [f for f, v in (("--checkpoint-every", args.checkpoint_every), ("--max-minutes", args.max_minutes))
+             if v is not None]
+    if given:
+        raise ValueError(f"{' and '.join(given)} apply to --stage gdnet only; drop them for --stage ggcnn")
+    overrides = C.parse_overrides(args.set)
+    check_ggcnn_out(args.out)
+    cfg = C.replace(C.preset(args.config or "tiny"), **overrides)
+    from vags_jax import ggcnn_data, scene
+
+    scene.build_spec(cfg)
+    cam, crop = cfg.camera, cfg.ggcnn.crop_size
+    if crop is not None and crop > min(cam.width, cam.height):
+        raise ValueError(f"ggcnn.crop_size = {crop} exceeds the camera image ({cam.width} x {cam.height}); "
+                         f"use at most {min(cam.width, cam.height)} or null (the largest centred square)")
+    data_dir = args.data_dir if args.data_dir is not None else ggcnn_data.default_data_dir()
+    if not data_dir:
+        raise ValueError("--data-dir must not be empty")
+    if os.path.exists(data_dir) and not os.path.isdir(data_dir):
+        raise ValueError(f"--data-dir {data_dir!r} is a file, not a directory")
+    cli._check_parent_writable(os.path.join(data_dir, "x"), "--data-dir")
+    return SimpleNamespace(cfg=cfg, data_dir=data_dir)
+
+
+def main_ggcnn(args) -> int:
+    """--stage ggcnn: data (made or reused), training, held-out accuracy, checkpoint."""
+    try:
+        plan = prepare_ggcnn(args)
+    except ValueError as e:
+        return cli.fail(PROG, e)
+    cfg = plan.cfg
+    t0 = time.time()
+
+    import jax
+
+    from vags_jax import ggcnn_data, ggcnn_stage
+
+    def log(msg):
+        print(msg, file=sys.stderr, flush=True)
+
+    try:
+        maker = ggcnn_data.DataMaker.shared(cfg)  # e.g. an unknown shape name in scene.shapes
+    except ValueError as e:
+        return cli.fail(PROG, e)
+    d = cfg.ggcnn_data
+    log(f"training GG-CNN: {d.views} views ({d.heldout_views} held out) of {d.candidates} grasps, "
+        f"{cfg.ggcnn.train_steps} updates of batch {cfg.ggcnn.batch_size}, input {cfg.ggcnn.input_size} px, "
+        f"impl={cfg.sim.impl}, devices={jax.devices()}")
+    try:
+        data = ggcnn_data.load_or_make(cfg, maker, plan.data_dir, log)
+    except OSError as e:
+        return cli.fail(PROG, f"cannot write the GG-CNN data cache in {plan.data_dir} ({cli.first_line(e)}); "
+                              f"pass another --data-dir")
+    try:
+        params, metrics = ggcnn_stage.train_ggcnn(cfg, data, ggcnn_stage.train_key(cfg),
+                                                  log=None if args.quiet else log, chunk=args.chunk)
+    except FloatingPointError as e:
+        print(f"{PROG}: error: {e}. Stopped; nothing was saved", file=sys.stderr)
+        return 1
+    acc = ggcnn_stage.heldout_accuracy(cfg, maker.env, params, maker=maker, log=log)
+    info = {"steps": metrics["steps"], "training": metrics, "heldout_accuracy": acc,
+            "data": dict(data.info), "wall_s": round(time.time() - t0, 1)}
+    gdir = ggcnn_stage.save_ggcnn(args.out, params, info, cfg)
+    summary = {"stage": "ggcnn", "steps": metrics["steps"], "train_loss": metrics["train_loss"],
+               "heldout_loss": metrics["heldout_loss"], **{k: acc[k] for k in (
+                   "ggcnn_success", "label_peak_success", "candidate_success", "views_with_success")},
+               "data_reused": data.info["reused"], "data": data.info["path"], "out": gdir,
+               "wall_s": info["wall_s"]}
+    print(json.dumps(summary))
+    return 0
 
 
 def prepare(args) -> SimpleNamespace:
@@ -178,6 +294,12 @@ def progress_line(it, total, grasps, recent_success, eps, loss, rate, explored):
 
 def main(argv=None) -> int:
     args = parse_args(argv)  # bad flags: one line, exit code 2
+    if args.stage == "ggcnn":
+        return main_ggcnn(args)
+    if args.data_dir is not None:
+        return cli.fail(PROG, "--data-dir is for --stage ggcnn (its cached views); drop it for stage 1")
+    if args.checkpoint_every is None:
+        args.checkpoint_every = 1
     try:
         plan = prepare(args)
     except ValueError as e:  # config validation / CheckpointError: what to fix

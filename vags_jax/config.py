@@ -1017,6 +1017,15 @@ def gpu() -> Config:
         exploration=Exploration(eps_decay=0.97),
         stage1=Stage(n_worlds=512, iterations=2000, min_objects=1, max_objects=5,
                      updates_per_iteration=16, learning_starts=1024),
+        # GG-CNN (train.py --stage ggcnn), sized for one H100 (estimates, not measured yet):
+        # 64 scenes x 64 candidates = 4,096 worlds per physics batch, the batch size at which
+        # the stage-1 loop made 4,400-5,500 grasp attempts/s (bench/RESULTS.md), so the
+        # 4,096 + 512 views (295k grasps) take of the order of a minute of physics, made once
+        # and then read from the cache (views stored as float16: 4,608 x 300 x 300 x 2 bytes,
+        # 0.83 GB).  6,000 Adam updates of batch 32 are ~47 passes over the 4,096 views
+        # (GG-CNN trained ~50 epochs on Cornell) and should take well under two minutes.
+        ggcnn=GGCNNConfig(batch_size=32, train_steps=6000),
+        ggcnn_data=GGCNNData(views=4096, heldout_views=512, candidates=64, scenes_per_batch=64),
     )
 
 
