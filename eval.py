@@ -118,16 +118,20 @@ def main(argv=None) -> int:
             if "benchmark.speed" in overrides:
                 raise ValueError("give the speed once: --speed or --set benchmark.speed=...")
             overrides["benchmark.speed"] = args.speed
+        ggcnn_cfg = None
         if args.run:
             from vags_jax import checkpoint
 
-            run_cfg = checkpoint.load_config(args.run)  # missing / damaged config.json
-            if policy == "gdnet":  # missing step, damaged files
-                checkpoint.read(args.run, args.step, parts=["learner"])
             if policy in ("ggcnn", "ggcnn-close"):  # no GG-CNN in the run, damaged files
-                from vags_jax.ggcnn_stage import load_ggcnn
+                from vags_jax.ggcnn_stage import ggcnn_dir, load_ggcnn
 
                 ggcnn_params, _ = load_ggcnn(args.run)
+                ggcnn_cfg = checkpoint.load_config(ggcnn_dir(args.run))
+            # A run that trained only GG-CNN has its config in RUN/ggcnn/.
+            alone = ggcnn_cfg is not None and not os.path.exists(os.path.join(args.run, "config.json"))
+            run_cfg = ggcnn_cfg if alone else checkpoint.load_config(args.run)  # missing / damaged config.json
+            if policy == "gdnet":  # missing step, damaged files
+                checkpoint.read(args.run, args.step, parts=["learner"])
         else:
             run_cfg = C.preset(args.config or "tiny")
         scene_over = dict(C.LEGACY_SCENES) if args.scenes == "legacy" else {}
@@ -141,12 +145,13 @@ def main(argv=None) -> int:
         if policy == "gdnet" and (cfg.net != run_cfg.net or cfg.workspace != run_cfg.workspace):
             raise ValueError("--set must not change net.* or workspace.*: the trained GDNet needs the "
                              "network and heightmaps it was trained with")
-        if policy in ("ggcnn", "ggcnn-close") and (
-                cfg.ggcnn.input_size != run_cfg.ggcnn.input_size or cfg.ggcnn.crop_size != run_cfg.ggcnn.crop_size
+        if ggcnn_cfg is not None and (
+                (cfg.ggcnn.input_size, cfg.ggcnn.crop_size) != (ggcnn_cfg.ggcnn.input_size, ggcnn_cfg.ggcnn.crop_size)
                 or (cfg.camera.width, cfg.camera.height, cfg.camera.fx, cfg.camera.fy)
-                != (run_cfg.camera.width, run_cfg.camera.height, run_cfg.camera.fx, run_cfg.camera.fy)):
-            raise ValueError("--set must not change ggcnn.input_size / crop_size or the camera image size and "
-                             "focal length: the trained GG-CNN needs the image scale it was trained on")
+                != (ggcnn_cfg.camera.width, ggcnn_cfg.camera.height, ggcnn_cfg.camera.fx, ggcnn_cfg.camera.fy)):
+            raise ValueError("the evaluation config has another ggcnn.input_size / crop_size or camera image size "
+                             "or focal length than the GG-CNN was trained with (RUN/ggcnn/config.json): it needs "
+                             "the image scale it was trained on")
         rounds = cfg.benchmark.rounds if args.rounds is None else args.rounds
         groups = C.benchmark_groups(cfg) if groups is None else groups
         check_rounds_fit(cfg, rounds)
