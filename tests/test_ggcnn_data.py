@@ -233,6 +233,8 @@ def test_load_ggcnn_errors(tmp_path):
     ggcnn_stage.save_ggcnn(run, params, {"steps": 5})
     got, step = ggcnn_stage.load_ggcnn(run)
     assert step == 5 and checkpoint.tree_equal(got, params)
+    with pytest.raises(checkpoint.CheckpointError, match=r"no GG-CNN checkpoint 7 .*holds \[5\]"):
+        ggcnn_stage.load_ggcnn(run, step=7)
 
     wrong = str(tmp_path / "wrong")
     ggcnn_stage.save_ggcnn(wrong, {"params": {"w": jnp.zeros((3,))}}, {"steps": 1})

@@ -262,9 +262,14 @@ def load_ggcnn(run_dir: str, step: Optional[int] = None):
     """
     out = ggcnn_dir(run_dir)
     retrain = f"python train.py --stage ggcnn --out {run_dir}"
-    if not os.path.isdir(out) or not checkpoint.checkpoint_steps(out):
+    steps = checkpoint.checkpoint_steps(out) if os.path.isdir(out) else []
+    if not steps:
         raise checkpoint.CheckpointError(
             f"run {run_dir} has no GG-CNN checkpoint ({out}): train one with {retrain}")
+    if step is not None and int(step) not in steps:
+        raise checkpoint.CheckpointError(
+            f"run {run_dir} has no GG-CNN checkpoint {step} ({out} holds {steps}); pass one of those "
+            f"or none for the latest")
     try:
         arrays, step = checkpoint.read(out, step)
     except checkpoint.CheckpointError as e:
