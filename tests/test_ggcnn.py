@@ -461,3 +461,24 @@ def test_adam_steps_reduce_loss(model, batch):
     aug_step = make_train_step(cfg, model, augment=True)
     state2, metrics = aug_step(state, jax.random.PRNGKey(4), x, labels)
     assert np.isfinite(float(metrics["loss"])) and int(state2.step) == 21
+
+
+@pytest.mark.parametrize("k, s, p", [(3, 2, 1), (5, 2, 2), (9, 3, 3)])
+def test_subpixel_transposed_conv_equals_flax_conv_transpose(k, s, p):
+    """GG-CNN's three transposed convolutions, phase by phase, against lax.conv_transpose on the
+    dilated input (what flax's nn.ConvTranspose computes), on a non-square input."""
+    from vags_jax.networks.ggcnn import conv_transpose_subpixel
+
+    pad = (k - 1 - p, k - 1 - p + 1)
+    x = jax.random.normal(jax.random.PRNGKey(0), (2, 7, 9, 3))
+    w = jax.random.normal(jax.random.PRNGKey(1), (k, k, 3, 4))
+    ref = jax.lax.conv_transpose(x, w, (s, s), (pad, pad), dimension_numbers=("NHWC", "HWIO", "NHWC"))
+    got = conv_transpose_subpixel(x, w, s, pad)
+    assert got.shape == ref.shape
+    np.testing.assert_allclose(np.asarray(got), np.asarray(ref), atol=1e-4)
+    # The whole network: the same parameters give the same maps either way.
+    model, dilated = GGCNN(), GGCNN(subpixel=False)
+    params = init_ggcnn(jax.random.PRNGKey(2), model, size=24)
+    xin = jax.random.normal(jax.random.PRNGKey(3), (1, 24, 24)) * 0.1
+    a, b = model.apply(params, xin), dilated.apply(params, xin)
+    np.testing.assert_allclose(np.asarray(a.stack()), np.asarray(b.stack()), atol=1e-5)
