@@ -70,13 +70,27 @@ def parse_args(argv=None):
     return p.parse_args(argv)
 
 
-def check_fresh_out(out: str) -> None:
-    """--out for a new run: a new or empty directory, or a run directory with no checkpoint yet
-    (left by a run that failed before its first checkpoint: it is reused)."""
+def _check_out_path(out: str) -> None:
+    """--out names a directory (new or existing), not a file."""
     if not out:
         raise ValueError("--out must not be empty")
     if os.path.exists(out) and not os.path.isdir(out):
         raise ValueError(f"--out {out!r} is a file, not a directory; choose a run directory")
+
+
+def _check_only_run_files(out: str) -> None:
+    """An existing --out holds only what train.py and eval.py write into a run."""
+    other = sorted(n for n in os.listdir(out) if not n.startswith(".") and n not in RUN_LEFTOVERS
+                   and not (n.startswith("eval_") and n.endswith(".json")))
+    if other:
+        raise ValueError(f"--out {out!r} is a non-empty directory that is not a run of train.py "
+                         f"(it holds {other[:3]}); choose a new or empty directory")
+
+
+def check_fresh_out(out: str) -> None:
+    """--out for a new run: a new or empty directory, or a run directory with no checkpoint yet
+    (left by a run that failed before its first checkpoint: it is reused)."""
+    _check_out_path(out)
     if os.path.isdir(out):
         from vags_jax import checkpoint
 
@@ -84,21 +98,14 @@ def check_fresh_out(out: str) -> None:
         if steps:
             raise ValueError(f"{out} already holds a run (checkpoint {steps[-1]}); pass --resume to "
                              f"continue it, or choose another --out")
-        other = sorted(n for n in os.listdir(out) if not n.startswith(".") and n not in RUN_LEFTOVERS
-                       and not (n.startswith("eval_") and n.endswith(".json")))
-        if other:
-            raise ValueError(f"--out {out!r} is a non-empty directory that is not a run of train.py "
-                             f"(it holds {other[:3]}); choose a new or empty directory")
+        _check_only_run_files(out)
     cli._check_parent_writable(os.path.join(out, "config.json"), "--out")
 
 
 def check_ggcnn_out(out: str) -> None:
     """--out for --stage ggcnn: a new or empty directory, or a run directory (stage 1's files
     are left alone) that holds no GG-CNN checkpoint yet."""
-    if not out:
-        raise ValueError("--out must not be empty")
-    if os.path.exists(out) and not os.path.isdir(out):
-        raise ValueError(f"--out {out!r} is a file, not a directory; choose a run directory")
+    _check_out_path(out)
     if os.path.isdir(out):
         from vags_jax import checkpoint, ggcnn_stage
 
@@ -109,11 +116,7 @@ def check_ggcnn_out(out: str) -> None:
         if steps:
             raise ValueError(f"{out} already holds a GG-CNN ({gdir}, checkpoint {steps[-1]}); choose another "
                              f"--out, or delete {gdir} to train it again")
-        other = sorted(n for n in os.listdir(out) if not n.startswith(".") and n not in RUN_LEFTOVERS
-                       and not (n.startswith("eval_") and n.endswith(".json")))
-        if other:
-            raise ValueError(f"--out {out!r} is a non-empty directory that is not a run of train.py "
-                             f"(it holds {other[:3]}); choose a new or empty directory")
+        _check_only_run_files(out)
     cli._check_parent_writable(os.path.join(out, "ggcnn", "config.json"), "--out")
 
 

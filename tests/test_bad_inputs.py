@@ -550,6 +550,14 @@ def test_eval_run_names_the_damage(kind, tmp_path, capsys, fake_run):
     assert re.search(DAMAGE[kind], line), line
 
 
+@pytest.mark.parametrize("policy", ["ggcnn", "ggcnn-close"])
+def test_eval_ggcnn_on_a_run_without_ggcnn_says_how_to_train_one(policy, tmp_path, capsys, fake_run):
+    run = fake_run(tmp_path)
+    code, line = _cli(eval_cli.main, ["--run", run, "--policy", policy], capsys)
+    assert code == 2 and line.startswith("eval.py: error: ")
+    assert f"has no GG-CNN checkpoint ({run}/ggcnn): train one with python train.py --stage ggcnn --out {run}" in line
+
+
 def test_eval_heuristic_on_a_run_reads_only_its_config(tmp_path, capsys, fake_run):
     run = fake_run(tmp_path)
     _damage(run, "config-garbled")
@@ -603,6 +611,11 @@ EVAL_FLAG_CASES = [
     (["--groups", "1-10"], r"outside 1\.\.3: the scene holds at most scene\.max_objects = 3"),
     (["--policy", "vpg"], r"unknown policy 'vpg'"),
     (["--policy", "gdnet"], r"policy gdnet needs --run"),
+    (["--policy", "ggcnn"], r"policy ggcnn needs --run"),
+    (["--policy", "ggcnn-close"], r"policy ggcnn-close needs --run"),
+    (["--set", "benchmark.rounds=0"], r"benchmark\.rounds must be"),
+    (["--set", "benchmark.groups=[1, 11]"], r"benchmark\.groups .* go above scene\.max_objects \(3\)"),
+    (["--speed", "1", "--set", "benchmark.speed=2"], r"give the speed once"),
     (["--step", "3"], r"--step selects a gdnet checkpoint; policy 'heuristic' uses none"),
     (["--set", "dqn.gamma=2"], r"dqn\.gamma must be in \[0, 1\)"),
     (["--set", "scene.max_objects=true"], r"scene\.max_objects must be an int, got True"),
