@@ -128,8 +128,16 @@ def main(argv=None) -> int:
                 ggcnn_params, _ = load_ggcnn(args.run)
                 ggcnn_cfg = checkpoint.load_config(ggcnn_dir(args.run))
             # A run that trained only GG-CNN has its config in RUN/ggcnn/.
-            alone = ggcnn_cfg is not None and not os.path.exists(os.path.join(args.run, "config.json"))
-            run_cfg = ggcnn_cfg if alone else checkpoint.load_config(args.run)  # missing / damaged config.json
+            gg_only = (not os.path.exists(os.path.join(args.run, "config.json"))
+                       and os.path.isfile(os.path.join(args.run, "ggcnn", "config.json")))
+            if gg_only and policy == "gdnet":
+                raise ValueError(f"run {args.run} holds only a GG-CNN ({args.run}/ggcnn): evaluate it with "
+                                 f"--policy ggcnn or ggcnn-close, or train GDNet into it with "
+                                 f"python train.py --out {args.run}")
+            if gg_only:
+                run_cfg = ggcnn_cfg if ggcnn_cfg is not None else checkpoint.load_config(os.path.join(args.run, "ggcnn"))
+            else:
+                run_cfg = checkpoint.load_config(args.run)  # missing / damaged config.json
             if policy == "gdnet":  # missing step, damaged files
                 checkpoint.read(args.run, args.step, parts=["learner"])
         else:

@@ -558,6 +558,13 @@ def test_eval_ggcnn_on_a_run_without_ggcnn_says_how_to_train_one(policy, tmp_pat
     assert f"has no GG-CNN checkpoint ({run}/ggcnn): train one with python train.py --stage ggcnn --out {run}" in line
 
 
+def test_eval_gdnet_on_a_ggcnn_only_run_says_what_it_holds(tmp_path, capsys):
+    run = str(tmp_path / "gg")
+    checkpoint.save_config(os.path.join(run, "ggcnn"), C.tiny())
+    code, line = _cli(eval_cli.main, ["--run", run], capsys)
+    assert code == 2 and f"run {run} holds only a GG-CNN" in line and "--policy ggcnn" in line
+
+
 def test_eval_heuristic_on_a_run_reads_only_its_config(tmp_path, capsys, fake_run):
     run = fake_run(tmp_path)
     _damage(run, "config-garbled")
