@@ -124,7 +124,11 @@ def test_ggcnn_close_policy_counts_a_viewpoint_per_attempt(cfg):
     ecfg = C.replace(cfg, **{"benchmark.max_attempts_extra": 1})
     params = init_ggcnn(jax.random.PRNGKey(3), size=ecfg.ggcnn.input_size)
     policy = E.make_policy("ggcnn-close", ecfg, ggcnn_params=params)
-    out = E.Evaluator(ecfg).run_group(policy, jax.random.PRNGKey(1), 2, 2)
+    ev = E.Evaluator(ecfg)
+    # Two worlds, the tall and the flat block apart (a scripted scene: no reset to compile).
+    state = _scene(ev.env, [[[0.08, -0.05, 0.05], [-0.06, 0.07, 0.0125]]] * 2, [[True, True]] * 2)
+    out = ev.play(policy, jax.random.PRNGKey(1), state)
+    assert (out.n_objects == 2).all()
     assert (out.attempts >= 1).all() and (out.attempts <= 2 * 2 + 1).all()
     assert (out.motions == 2 * out.attempts).all()
     assert (out.viewpoints == out.attempts).all()

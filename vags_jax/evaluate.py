@@ -532,16 +532,25 @@ class Evaluator:
         k_reset, k_loop = jax.random.split(key)
         self.env.prepare(rounds)
         s0 = self._reset(k_reset, jnp.full((rounds,), n_objects, jnp.int32))  # errors: counted, not raised
-        fn = self._compiled.get(policy.plan)
-        if fn is None:
-            fn = self._compiled[policy.plan] = jax.jit(lambda p, k, s: self._rounds_impl(policy.plan, p, k, s))
-        out = jax.tree.map(np.asarray, jax.device_get(fn(policy.params, k_loop, s0)))
+        out = self.play(policy, k_loop, s0)
         if out.error.any() or out.overflow.any():
             warnings.warn(
                 f"evaluate: {int(out.error.sum())} of {rounds} rounds with {n_objects} objects ended in a physics "
                 f"error and {int(out.overflow.sum())} overflowed a contact buffer (see vags_jax.sim); they count "
                 f"as not cleared (raise Config.sim.naconmax / njmax for overflows)", RuntimeWarning, stacklevel=2)
         return out
+
+    def play(self, policy: Policy, key, state: EnvState) -> RoundOutcomes:
+        """Plays the rounds of ``state`` (B worlds with fresh counters: from ``VagsEnv.reset``, or
+        a scripted scene) to their end with ``policy`` -> RoundOutcomes of numpy (B,).  key: (2,)."""
+        key = jnp.asarray(key)
+        if jnp.issubdtype(key.dtype, jax.dtypes.prng_key):
+            key = jax.random.key_data(key)
+        self.env.prepare(state.n_worlds)
+        fn = self._compiled.get(policy.plan)
+        if fn is None:
+            fn = self._compiled[policy.plan] = jax.jit(lambda p, k, s: self._rounds_impl(policy.plan, p, k, s))
+        return jax.tree.map(np.asarray, jax.device_get(fn(policy.params, key, state)))
 
 
 def evaluate(cfg: Config, policy: Policy, groups: Optional[Sequence[int]] = None,
