@@ -177,7 +177,7 @@ def test_random_and_gdnet_policies_on_maps():
 
 @pytest.fixture(scope="module")
 def tiny_eval(tiny_cfg):
-    cfg = C.replace(tiny_cfg, **{"stage1.max_attempts_extra": 1})
+    cfg = C.replace(tiny_cfg, **{"benchmark.max_attempts_extra": 1})
     ev = E.Evaluator(cfg)
     policy = E.make_policy("heuristic", cfg)
     report = E.evaluate(cfg, policy, groups=(1, 2), rounds=2, seed=0, evaluator=ev)
