@@ -335,9 +335,10 @@ class VagsEnv:
 
     def step_grasp_world(self, state: EnvState, position: jax.Array, yaw: jax.Array,
                          key: Optional[jax.Array] = None, motions: int = 1, observe: bool = True):
-        """Grasp at world position (B, 3) / yaw (B,), then (``observe``) re-observe the global view."""
-        sim_state, result = self.sim.grasp_batched(state.sim, position, yaw, self._start(state.n_worlds))
-        return self._after_grasp(state, sim_state, result, key, motions, observe), result
+        """Grasp at world position (B, 3) / yaw (B,) from the global view, then (``observe``)
+        re-observe it; the attempt counts ``motions``."""
+        attempt = self.direct_attempt(position, yaw)
+        return self.step_attempt(state, attempt.replace(motions=jnp.full_like(attempt.motions, motions)), key, observe)
 
     def step_grasp(self, state: EnvState, pixel: jax.Array, rotation: jax.Array,
                    key: Optional[jax.Array] = None, observe: bool = True):

@@ -24,7 +24,7 @@ import jax.numpy as jnp
 from vags_jax import camera
 from vags_jax.config import Camera, GGCNNConfig
 from vags_jax.ggcnn_process import (ImageGrasp, WorldGrasp, best_grasp, crop_resize, grasp_to_world,
-                                    preprocess_depth, sample_depth)
+                                    preprocess_depth)
 from vags_jax.networks.ggcnn import GGCNN
 
 
@@ -66,9 +66,7 @@ def predict_grasp(model: GGCNN, params, depth: jax.Array, pose: jax.Array, cam_c
     """
     x, filled, k_in = network_input(depth, cam_cfg, gcfg)
     img = best_grasp(model.apply(params, x), gcfg)
-    z = sample_depth(filled, img.pixel)
-    g = grasp_to_world(img.pixel, img.angle, img.width_px, z, k_in, pose)
-    return g.replace(position=g.position.at[..., 2].add(-depth_below)), img
+    return image_to_world(img.pixel, img.angle, img.width_px, filled, k_in, pose, depth_below), img
 
 
 __all__ = ["network_input", "image_to_world", "predict_grasp", "ImageGrasp", "WorldGrasp"]
