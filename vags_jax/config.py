@@ -638,6 +638,39 @@ class Stage:
                f"overflow the int32 attempt counter; keep it below 2**31 (lower iterations)")
 
 
+@dataclass(frozen=True)
+@checked
+class Vags:
+    """VAGS's decision and VANet's reward (stages 2 and 3; ``eval.py --policy vags``).
+
+    The decision (paper Fig. 2): grasp directly where the largest GDNet Q of the global view
+    exceeds ``threshold``, else move the camera to VANet's best viewpoint and grasp with
+    GG-CNN there.  The paper's threshold, 1.78, is on its own Q scale; ours need not match,
+    so ``threshold = None`` (the default) calibrates it once, at the start of stage 2: the
+    ``threshold_quantile`` quantile of the frozen GDNet's largest Q over stage 2's first global
+    views (``stage2.n_worlds`` fresh scenes of ``stage2.min_objects..max_objects`` objects).
+    The value used is stored in the run (stage 2 and 3 checkpoints) and is ``eval.py``'s default.
+
+    VANet's reward (paper eq. 5, whose symbols the paper text lost; our reconstruction): 0 when
+    the grasp after the viewpoint move fails; on success ``success_reward``, plus
+    ``view_bonus`` when the largest GDNet Q of the next global view exceeds the largest GDNet Q
+    before the move (the move "created a better condition to grasp the next object directly").
+    GDNet's reward (eq. 3) is ``success_reward`` on success, else 0.
+    """
+
+    threshold: Optional[float] = None
+    threshold_quantile: float = 0.5
+    success_reward: float = 1.0
+    view_bonus: float = 1.0
+
+    def __post_init__(self):
+        if self.threshold is not None:
+            _within("Vags.threshold", self.threshold, -1e6, 1e6)
+        _within("Vags.threshold_quantile", self.threshold_quantile, 0.0, 1.0)
+        _within("Vags.success_reward", self.success_reward, 0.0, 1e3, lo_open=True)
+        _within("Vags.view_bonus", self.view_bonus, 0.0, 1e3)
+
+
 # ----------------------------------------------------------------------------- GG-CNN
 
 GGCNN_SIZE_MULTIPLE = 12  # GG-CNN input H, W must be multiples of this (vags_jax.networks.ggcnn)
@@ -789,6 +822,10 @@ class Config:
     replay: Replay = field(default_factory=Replay)
     exploration: Exploration = field(default_factory=Exploration)
     stage1: Stage = field(default_factory=Stage)
+    # Stage 2: VANet with GDNet frozen; stage 3: both, updated alternately (paper 3.2).
+    stage2: Stage = field(default_factory=lambda: Stage(name="vanet", min_objects=1, max_objects=10))
+    stage3: Stage = field(default_factory=lambda: Stage(name="alternate", min_objects=1, max_objects=10))
+    vags: Vags = field(default_factory=Vags)
     ggcnn: GGCNNConfig = field(default_factory=GGCNNConfig)
     ggcnn_data: GGCNNData = field(default_factory=GGCNNData)
     benchmark: Benchmark = field(default_factory=Benchmark)
@@ -802,11 +839,13 @@ class Config:
         _check(self.benchmark.groups is None or max(self.benchmark.groups) <= N,
                f"benchmark.groups {self.benchmark.groups} go above scene.max_objects ({N}); the scene "
                f"holds at most {N} objects")
-        _check(
-            self.stage1.max_objects <= self.scene.max_objects,
-            f"stage1.max_objects ({self.stage1.max_objects}) exceeds scene.max_objects "
-            f"({self.scene.max_objects})",
-        )
+        for name in ("stage1", "stage2", "stage3"):
+            st = getattr(self, name)
+            _check(st.max_objects <= self.scene.max_objects,
+                   f"{name}.max_objects ({st.max_objects}) exceeds scene.max_objects ({self.scene.max_objects})")
+            _check(st.learning_starts <= self.replay.capacity,
+                   f"{name}.learning_starts ({st.learning_starts}) exceeds replay.capacity "
+                   f"({self.replay.capacity}): learning would never start")
         _check(self.net.n_rotations == self.grasp.n_rotations,
                "net.n_rotations must equal grasp.n_rotations")
         _within("seed", self.seed, 0, 2**32 - 1)
@@ -816,9 +855,6 @@ class Config:
         _check(self.camera.global_position[2] > self.workspace.table_z,
                f"camera.global_position {self.camera.global_position} must be above the table "
                f"(z > workspace.table_z = {self.workspace.table_z})")
-        _check(self.stage1.learning_starts <= self.replay.capacity,
-               f"stage1.learning_starts ({self.stage1.learning_starts}) exceeds replay.capacity "
-               f"({self.replay.capacity}): learning would never start")
         px = self.workspace.heightmap_px
         replay_bytes = self.replay.capacity * REPLAY_BYTES_PER_CELL * px * px
         _check(replay_bytes <= MAX_DEVICE_BYTES,
@@ -826,12 +862,14 @@ class Config:
                f"{replay_bytes / 2**30:,.0f} GiB ({REPLAY_BYTES_PER_CELL} bytes per cell), more than "
                f"{MAX_DEVICE_BYTES // 2**30} GiB; lower replay.capacity (at most "
                f"{MAX_DEVICE_BYTES // (REPLAY_BYTES_PER_CELL * px * px):,}) or workspace.heightmap_px")
-        q_bytes = 2 * self.stage1.n_worlds * self.net.n_rotations * px * px
-        _check(q_bytes <= MAX_DEVICE_BYTES,
-               f"stage1.n_worlds = {self.stage1.n_worlds:,} worlds need Q maps of "
-               f"{self.net.n_rotations} x {px} x {px} each, {q_bytes / 2**30:,.0f} GiB at 2 bytes per "
-               f"value, more than {MAX_DEVICE_BYTES // 2**30} GiB; lower stage1.n_worlds or "
-               f"workspace.heightmap_px")
+        for name in ("stage1", "stage2", "stage3"):
+            n = getattr(self, name).n_worlds
+            q_bytes = 2 * n * self.net.n_rotations * px * px
+            _check(q_bytes <= MAX_DEVICE_BYTES,
+                   f"{name}.n_worlds = {n:,} worlds need Q maps of "
+                   f"{self.net.n_rotations} x {px} x {px} each, {q_bytes / 2**30:,.0f} GiB at 2 bytes per "
+                   f"value, more than {MAX_DEVICE_BYTES // 2**30} GiB; lower {name}.n_worlds or "
+                   f"workspace.heightmap_px")
 
 
 def benchmark_groups(cfg: Config) -> tuple[int, ...]:
@@ -976,6 +1014,8 @@ def tiny() -> Config:
         replay=Replay(capacity=512),
         exploration=Exploration(eps_decay=0.99),
         stage1=Stage(n_worlds=4, iterations=40, min_objects=1, max_objects=3, learning_starts=8),
+        stage2=Stage(name="vanet", n_worlds=4, iterations=20, min_objects=1, max_objects=3, learning_starts=8),
+        stage3=Stage(name="alternate", n_worlds=4, iterations=20, min_objects=1, max_objects=3, learning_starts=8),
         # GG-CNN at 24 x 24 (the 96-pixel square of the 128 x 96 image, resized by 1/4).
         ggcnn=GGCNNConfig(input_size=24, inpaint_iters=16, quality_sigma=1.0, angle_sigma=1.0,
                           width_sigma=0.5, train_steps=60),
@@ -1015,8 +1055,16 @@ def gpu() -> Config:
         dqn=DQN(batch_size=64, optimizer="adam", learning_rate=5e-4, target_update_period=50),
         replay=Replay(capacity=16_384),
         exploration=Exploration(eps_decay=0.97),
-        stage1=Stage(n_worlds=512, iterations=2000, min_objects=1, max_objects=5,
+        # The pipeline's lengths (train.py with no --stage): stage 1 as the 3.5-minute stage-1
+        # runs of bench/RESULTS.md (96-108 iterations reached 85-92 % live success), then
+        # stages 2 and 3 of the same order, so that the whole pipeline fits in well under 30
+        # minutes of one H100.
+        stage1=Stage(n_worlds=512, iterations=120, min_objects=1, max_objects=5,
                      updates_per_iteration=16, learning_starts=1024),
+        stage2=Stage(name="vanet", n_worlds=512, iterations=80, min_objects=1, max_objects=10,
+                     updates_per_iteration=16, learning_starts=512),
+        stage3=Stage(name="alternate", n_worlds=512, iterations=80, min_objects=1, max_objects=10,
+                     updates_per_iteration=16, learning_starts=512),
         # GG-CNN (train.py --stage ggcnn), sized for one H100 (estimates, not measured yet):
         # 64 scenes x 64 candidates = 4,096 worlds per physics batch, the batch size at which
         # the stage-1 loop made 4,400-5,500 grasp attempts/s (bench/RESULTS.md), so the

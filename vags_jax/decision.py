@@ -61,10 +61,12 @@ def decide(q_grasp: jax.Array, q_view: jax.Array, threshold) -> Decision:
 
 
 def plan_attempt(cfg: Config, env: VagsEnv, state: EnvState, decision: Decision, ggcnn_params, key,
-                 ggcnn_model=None) -> Attempt:
+                 ggcnn_model=None, details: bool = False):
     """A decision -> the attempt of every world (``env.Attempt``): GDNet's grasp from the
     global view where ``decision.direct``, else GG-CNN's grasp in the close view taken above
-    ``decision.view``.  key: the close image's sensor-noise key."""
+    ``decision.view``.  key: the close image's sensor-noise key.  With ``details`` returns
+    ``(attempt, {"image": CameraImage of the close views, "image_grasp": GG-CNN's ImageGrasp})``
+    (for pictures of the decision, ``eval.py --record``)."""
     from vags_jax.ggcnn_grasp import predict_grasp
     from vags_jax.networks.ggcnn import GGCNN
 
@@ -72,10 +74,11 @@ def plan_attempt(cfg: Config, env: VagsEnv, state: EnvState, decision: Decision,
     pos_d, yaw_d = env.grasp_pose(state, decision.grasp[:, 1:], decision.grasp[:, 0])
     pose = env.viewpoint_pose(state, decision.view)
     image = env.camera_image(state.sim, pose, key)
-    close, _ = predict_grasp(model, ggcnn_params, image.depth, pose, cfg.camera, cfg.ggcnn,
-                             cfg.grasp.depth_below_surface)
-    return select_attempt(decision.direct, env.direct_attempt(pos_d, yaw_d),
-                          env.viewpoint_attempt(close.position, close.yaw, pose))
+    close, img = predict_grasp(model, ggcnn_params, image.depth, pose, cfg.camera, cfg.ggcnn,
+                               cfg.grasp.depth_below_surface)
+    attempt = select_attempt(decision.direct, env.direct_attempt(pos_d, yaw_d),
+                             env.viewpoint_attempt(close.position, close.yaw, pose))
+    return (attempt, {"image": image, "image_grasp": img}) if details else attempt
 
 
 __all__ = ["Decision", "decide", "plan_attempt"]

@@ -84,6 +84,10 @@ class Attempt:
     start: jax.Array
     motions: jax.Array
     view_travel: jax.Array
+    # (B,) float32 the planner's decision value (VAGS: GDNet's largest Q on the global view,
+    # which the threshold is compared with), recorded by the benchmark; None for planners
+    # without one.
+    score: Optional[jax.Array] = None
 
 
 def select_attempt(mask: jax.Array, a: Attempt, b: Attempt) -> Attempt:
@@ -239,7 +243,16 @@ class VagsEnv:
         """
         k_sim, k_obs = jax.random.split(key)
         B = n_objects.shape[0]
-        sim_state = self.sim.reset_batched(jax.random.split(k_sim, B), n_objects)
+        return self.step_reset_worlds(jax.random.split(k_sim, B), n_objects, k_obs, observe)
+
+    def step_reset_worlds(self, keys: jax.Array, n_objects: jax.Array, obs_key: jax.Array,
+                          observe: bool = True) -> EnvState:
+        """``step_reset`` with one scene key per world: keys (B, 2), n_objects (B,) int32,
+        obs_key (2,) the observation's sensor-noise key.  A world's scene depends only on its
+        key, so worlds of different batches can be given the scenes of one ``step_reset``."""
+        B = n_objects.shape[0]
+        k_obs = obs_key
+        sim_state = self.sim.reset_batched(keys, n_objects)
         H = self.cfg.workspace.heightmap_px
         if observe:
             color, height = self.observe_global(sim_state, k_obs)
@@ -354,11 +367,22 @@ class VagsEnv:
         others grasp at pixel (B, 2) / rotation (B,).  The new scenes settle during the same
         physics loop as the grasps, so a reset costs no extra simulated time for the batch.
         reset_key: (2,) raw uint32.  Returns (state, GraspResult)."""
-        B = state.n_worlds
         position, yaw = self.grasp_pose(state, pixel, rotation)
+        return self.step_attempt_or_reset(state, self.direct_attempt(position, yaw), reset, reset_key,
+                                          n_objects, key, observe)
+
+    def step_attempt_or_reset(self, state: EnvState, attempt: Attempt, reset: jax.Array,
+                              reset_key: jax.Array, n_objects: jax.Array,
+                              key: Optional[jax.Array] = None, observe: bool = True):
+        """``step_grasp_or_reset`` for planned attempts (direct or after a viewpoint move, each
+        world on its own branch): worlds with ``reset`` (B,) start a new round of n_objects (B,)
+        instead.  Returns (state, GraspResult)."""
+        B = state.n_worlds
         sim_state, result = self.sim.grasp_or_reset_batched(
-            state.sim, position, yaw, self._start(B), reset, jax.random.split(reset_key, B), n_objects)
-        state = self._after_grasp(state, sim_state, result, key, 1, observe, grasped=~reset)
+            state.sim, attempt.position, attempt.yaw, attempt.start, reset, jax.random.split(reset_key, B),
+            n_objects)
+        state = self._after_grasp(state, sim_state, result, key, attempt.motions, observe, grasped=~reset,
+                                  view_travel=attempt.view_travel)
         return state, result
 
     # ------------------------------------------------------------------ public, validated

@@ -1,8 +1,10 @@
 """The benchmark of docs/benchmark.md (paper section 4.4) for the policies that exist now.
 
-Protocol.  For every group size ``k`` (default 1..10) run ``R`` rounds (default 50).  All R
-rounds of a group are R parallel worlds of ONE batch: each starts with ``k`` objects drawn from
-the block set (random shapes, colours, poses: ``VagsEnv.step_reset``).  A round ends when the
+Protocol.  For every group size ``k`` (default 1..10) run ``R`` rounds (default 50).  Every
+round is one world, and all rounds of all groups play at once in ONE batch of G x R worlds
+(``Evaluator.run_groups``; ``evaluate(..., batch_groups=False)`` plays one group per batch):
+a round of group ``k`` starts with ``k`` objects drawn from the object set (random shapes,
+sizes, colours, poses: ``VagsEnv.step_reset``).  A round ends when the
 table is clear, after ``2 * k + cfg.benchmark.max_attempts_extra`` grasp attempts, or on a physics
 error.  The attempts run inside one jitted ``lax.while_loop`` that stops when every round is
 over; a finished world's state is frozen (its physics may still be computed, its outcome is
@@ -24,6 +26,12 @@ an action ``(B, 3) int32 [rotation, row, col]`` on the global heightmaps (1 moti
   grasp depth (height > surface - ``depth_below_surface``, and an object cell); choose the axis
   with the narrowest run that fits in ``finger_stroke`` (the narrowest one if none fits), and
   move the grasp centre to the middle of that run.
+* ``vags``: the method (``vags_plan``, paper Fig. 2): GDNet's largest Q on the global view
+  above the threshold -> grasp directly at its argmax (1 motion); else move the camera to
+  VANet's argmax viewpoint and grasp at GG-CNN's best grasp in the close image (2 motions).
+  ``params`` = ``{"gdnet", "vanet", "ggcnn", "threshold"}`` (``pipeline.load_vags``); the
+  threshold is an argument of the compiled loop, so a threshold sweep compiles once.  A
+  threshold of -inf is the VANet ablation (GDNet alone, ``eval.py --no-viewpoint``).
 * ``ggcnn``: GG-CNN on the raw depth image of the global camera, 1 motion (the paper's GG-CNN
   baseline).  ``ggcnn-close``: move the camera 25 cm above the ``highest`` cell, take a depth
   image there and grasp at GG-CNN's best grasp, 2 motions.  Both need a GG-CNN trained by
@@ -42,8 +50,10 @@ Diagnostics beside them: the share of attempts that moved the camera to a viewpo
 (``viewpoint_rate``), attempts per round, the share of attempts aimed at an object cell
 (``on_object_rate``), objects lost (left the table without a grasp), physics errors.
 
-Reproducible: group ``k`` uses ``jax.random.fold_in(PRNGKey(seed), k)``, so adding or removing
-other groups does not change it (changing the number of rounds does: it is the batch size).
+Reproducible: the scenes of group ``k`` come from ``jax.random.fold_in(PRNGKey(seed), k)``,
+one key per round, so adding or removing other groups does not change them (changing the
+number of rounds does).  The policies' random draws and the sensor noise during the rounds
+come from the seed and the whole batch.
 """
 from __future__ import annotations
 
@@ -66,7 +76,7 @@ from vags_jax import camera
 from vags_jax.config import benchmark_groups
 from vags_jax.env import Attempt, EnvState, VagsEnv, where_worlds
 
-POLICIES = ("gdnet", "ggcnn", "ggcnn-close", "random", "highest", "heuristic")
+POLICIES = ("vags", "gdnet", "ggcnn", "ggcnn-close", "random", "highest", "heuristic")
 DEFAULT_GROUPS = tuple(range(1, 11))  # the paper's; the config's ``benchmark`` section decides
 DEFAULT_ROUNDS = 50
 
@@ -136,6 +146,8 @@ class RoundOutcomes:
     global height map (diagnostic: a grasp aimed at bare table cannot succeed); viewpoints:
     attempts that moved the camera to a viewpoint before grasping (motions > 1); error: physics
     failure (NaN / tunnelling) ended the round; overflow: a warp contact buffer was full at some step (results unreliable).
+    scores: (R, T) the planner's decision value of each attempt (``Attempt.score``; VAGS: GDNet's
+    largest Q), NaN after the round's last attempt or for planners without one.
     """
 
     n_objects: Any
@@ -149,6 +161,7 @@ class RoundOutcomes:
     viewpoints: Any
     error: Any
     overflow: Any
+    scores: Any
 
     @property
     def cleared(self) -> np.ndarray:
@@ -259,6 +272,34 @@ def ggcnn_plan(cfg: Config, close: bool) -> Callable:
         return env.direct_attempt(grasp.position, grasp.yaw)
 
     return plan
+
+
+def vags_plan(cfg: Config) -> Callable:
+    """VAGS's planner (``decision.decide`` + ``decision.plan_attempt``): params = {"gdnet",
+    "vanet"} ({"params", "batch_stats"} each), "ggcnn" ({"params"}), "threshold" (() float32).
+    The attempt's ``score`` is GDNet's largest Q."""
+    from vags_jax.decision import decide, plan_attempt
+    from vags_jax.networks import make_qnet
+    from vags_jax.networks.ggcnn import GGCNN
+
+    gdnet, vanet, model = make_qnet(cfg.net, "gdnet"), make_qnet(cfg.net, "vanet"), GGCNN()
+
+    def plan(params, key, env: VagsEnv, state: EnvState) -> Attempt:
+        q_grasp = gdnet.apply(params["gdnet"], state.color, state.height, False)  # (B, R, H, W)
+        q_view = vanet.apply(params["vanet"], state.color, state.height, False)  # (B, H, W)
+        decision = decide(q_grasp, q_view, params["threshold"])
+        attempt = plan_attempt(cfg, env, state, decision, params["ggcnn"], key, model)
+        return attempt.replace(score=decision.q_max)
+
+    return plan
+
+
+def vags_params(networks, threshold=None) -> dict:
+    """The ``vags`` policy's params from ``pipeline.VagsNetworks`` (threshold: override, e.g.
+    ``-inf`` for the VANet ablation)."""
+    thr = networks.threshold if threshold is None else threshold
+    return {"gdnet": networks.gdnet, "vanet": networks.vanet, "ggcnn": networks.ggcnn,
+            "threshold": jnp.asarray(thr, jnp.float32)}
 
 
 def _object_mask(height: jax.Array, threshold: float) -> jax.Array:
@@ -381,12 +422,19 @@ def gdnet_act(cfg: Config) -> Callable:
     return act
 
 
-def make_policy(name: str, cfg: Config, gdnet_variables: Any = None, ggcnn_params: Any = None) -> Policy:
+def make_policy(name: str, cfg: Config, gdnet_variables: Any = None, ggcnn_params: Any = None,
+                vags_networks: Any = None, threshold: Optional[float] = None) -> Policy:
     """Policy by name (``POLICIES``); ``gdnet`` needs ``gdnet_variables`` ({"params",
     "batch_stats"}, e.g. from ``load_gdnet``); ``ggcnn`` / ``ggcnn-close`` need
-    ``ggcnn_params`` ({"params"}, e.g. from ``ggcnn_stage.load_ggcnn``)."""
+    ``ggcnn_params`` ({"params"}, e.g. from ``ggcnn_stage.load_ggcnn``); ``vags`` needs
+    ``vags_networks`` (``pipeline.load_vags``) and takes ``threshold`` (default: the run's)."""
     if name not in POLICIES:
         raise ValueError(f"unknown policy {name!r}; choose one of {', '.join(POLICIES)}")
+    if name == "vags":
+        if vags_networks is None:
+            raise ValueError("policy 'vags' needs the trained networks of a run (eval.py --run RUN after "
+                             "train.py's stage 2 or 3), or pass vags_networks")
+        return Policy("vags", vags_plan(cfg), vags_params(vags_networks, threshold))
     if name == "gdnet":
         if gdnet_variables is None:
             raise ValueError("policy 'gdnet' needs trained GDNet variables: evaluate a run "
@@ -436,6 +484,7 @@ class _Carry:
     return_travel: jax.Array  # (B,) float32
     on_object: jax.Array  # (B,) int32
     viewpoints: jax.Array  # (B,) int32
+    scores: jax.Array  # (B, T) float32, NaN where no attempt was made
     key: jax.Array
     t: jax.Array  # () int32
 
@@ -473,6 +522,7 @@ class Evaluator:
         self.env = env if env is not None else VagsEnv(cfg)
         self._compiled: dict[Any, Callable] = {}
         self._reset = jax.jit(self.env.step_reset)  # the same program as VagsEnv.reset
+        self._reset_worlds = jax.jit(self.env.step_reset_worlds)
         self._start = np.asarray(cfg.camera.global_position, np.float32)
 
     def _rounds_impl(self, plan: Callable, params, key: jax.Array, s0: EnvState):
@@ -484,6 +534,7 @@ class Evaluator:
         B = s0.n_worlds
         extra = cfg.benchmark.max_attempts_extra
         budget = jnp.max(env.max_attempts(s0.sim.n_objects, extra))
+        T = 2 * cfg.scene.max_objects + extra  # the largest budget any round can have
         noise = cfg.camera.noise.enabled
 
         def cond(c: _Carry):
@@ -507,20 +558,24 @@ class Evaluator:
             aimed = inside & (c.env.height[jnp.arange(B), pixel[:, 0], pixel[:, 1]] > cfg.exploration.height_threshold)
             on_obj = c.on_object + (aimed & ~keep).astype(jnp.int32)
             views = c.viewpoints + ((attempt.motions > 1) & ~keep).astype(jnp.int32)
+            scores = c.scores
+            if attempt.score is not None:
+                score = jnp.where(keep, jnp.nan, attempt.score.astype(jnp.float32))
+                scores = scores.at[:, jnp.minimum(c.t, T - 1)].set(score)
             done = keep | env.round_over(s2, extra) | s2.sim.error
-            return _Carry(env=s2, done=done, return_travel=ret, on_object=on_obj, viewpoints=views, key=key,
-                          t=c.t + 1)
+            return _Carry(env=s2, done=done, return_travel=ret, on_object=on_obj, viewpoints=views,
+                          scores=scores, key=key, t=c.t + 1)
 
         zi = jnp.zeros((B,), jnp.int32)
         c0 = _Carry(env=s0, done=env.round_over(s0, extra) | s0.sim.error,
-                    return_travel=jnp.zeros((B,), jnp.float32), on_object=zi, viewpoints=zi, key=key,
-                    t=jnp.zeros((), jnp.int32))
+                    return_travel=jnp.zeros((B,), jnp.float32), on_object=zi, viewpoints=zi,
+                    scores=jnp.full((B, T), jnp.nan, jnp.float32), key=key, t=jnp.zeros((), jnp.int32))
         c = jax.lax.while_loop(cond, body, c0)
         s = c.env
         out = RoundOutcomes(
             n_objects=s.sim.n_objects, attempts=s.attempts, successes=s.successes, motions=s.motions,
             travel=s.travel, return_travel=c.return_travel, remaining=env.n_remaining(s), on_object=c.on_object,
-            viewpoints=c.viewpoints, error=s.sim.error, overflow=s.sim.overflow)
+            viewpoints=c.viewpoints, error=s.sim.error, overflow=s.sim.overflow, scores=c.scores)
         return out
 
     def run_group(self, policy: Policy, key, n_objects: int, rounds: int) -> RoundOutcomes:
@@ -540,6 +595,30 @@ class Evaluator:
                 f"as not cleared (raise Config.sim.naconmax / njmax for overflows)", RuntimeWarning, stacklevel=2)
         return out
 
+    def run_groups(self, policy: Policy, seed: int, groups: Sequence[int], rounds: int) -> list[RoundOutcomes]:
+        """Every group's ``rounds`` rounds in ONE batch of len(groups) * rounds worlds -> one
+        RoundOutcomes of numpy (rounds,) per group.  Group k's scenes are those of
+        ``run_group(policy, fold_in(PRNGKey(seed), k), k, rounds)``."""
+        groups = check_groups(groups, self.cfg, rounds)
+        base = jax.random.PRNGKey(seed)
+        keys, counts = [], []
+        for k in groups:
+            k_reset, _ = jax.random.split(jax.random.fold_in(base, k))
+            k_sim, _ = jax.random.split(k_reset)
+            keys.append(jax.random.split(k_sim, rounds))
+            counts.append(jnp.full((rounds,), k, jnp.int32))
+        B = rounds * len(groups)
+        self.env.prepare(B)
+        k_obs, k_loop = jax.random.split(jax.random.fold_in(base, 1 << 20))
+        s0 = self._reset_worlds(jnp.concatenate(keys), jnp.concatenate(counts), k_obs)
+        out = self.play(policy, k_loop, s0)
+        if out.error.any() or out.overflow.any():
+            warnings.warn(
+                f"evaluate: {int(out.error.sum())} of {B} rounds ended in a physics error and "
+                f"{int(out.overflow.sum())} overflowed a contact buffer (see vags_jax.sim); they count as not "
+                f"cleared (raise Config.sim.naconmax / njmax for overflows)", RuntimeWarning, stacklevel=2)
+        return [jax.tree.map(lambda x: x[i * rounds:(i + 1) * rounds], out) for i in range(len(groups))]
+
     def play(self, policy: Policy, key, state: EnvState) -> RoundOutcomes:
         """Plays the rounds of ``state`` (B worlds with fresh counters: from ``VagsEnv.reset``, or
         a scripted scene) to their end with ``policy`` -> RoundOutcomes of numpy (B,).  key: (2,)."""
@@ -556,14 +635,16 @@ class Evaluator:
 def evaluate(cfg: Config, policy: Policy, groups: Optional[Sequence[int]] = None,
              rounds: Optional[int] = None, seed: Optional[int] = None,
              time_model: Optional[MotionTimeModel] = None, evaluator: Optional[Evaluator] = None,
-             log: Optional[Callable[[str], None]] = None) -> dict:
+             log: Optional[Callable[[str], None]] = None, batch_groups: bool = True) -> dict:
     """The whole benchmark -> report dict (JSON-ready).
 
     ``groups``, ``rounds`` and ``time_model`` default to the config's ``benchmark`` section
     (``config.benchmark_groups``, ``benchmark.rounds``, ``MotionTimeModel.from_config``).
     Keys: ``policy``, ``seed``, ``rounds``, ``groups``, ``time_model``, ``groups_metrics``
-    (list of ``summarize`` dicts with ``n_objects`` and ``wall_s``), ``overall`` (pooled),
-    ``outcomes`` ({k: RoundOutcomes.to_json()}).  ``seed`` defaults to ``cfg.seed``.
+    (list of ``summarize`` dicts with ``n_objects``, and ``wall_s`` when groups play one
+    after the other), ``overall`` (pooled), ``outcomes`` ({k: RoundOutcomes.to_json()}),
+    ``wall_s``.  ``seed`` defaults to ``cfg.seed``.  ``batch_groups``: every group in one batch
+    (``Evaluator.run_groups``), else one batch per group (``run_group``).
     """
     groups = benchmark_groups(cfg) if groups is None else groups
     rounds = cfg.benchmark.rounds if rounds is None else rounds
@@ -575,22 +656,27 @@ def evaluate(cfg: Config, policy: Policy, groups: Optional[Sequence[int]] = None
         raise ValueError("evaluate: the evaluator was built for a different config")
     base = jax.random.PRNGKey(seed)
     per_group, parts, raw = [], [], {}
-    for k in groups:
+    t_all = time.time()
+    batched = ev.run_groups(policy, seed, groups, rounds) if batch_groups else None
+    for i, k in enumerate(groups):
         t0 = time.time()
-        out = ev.run_group(policy, jax.random.fold_in(base, k), k, rounds)
-        m = {"n_objects": k, **summarize(out, time_model), "wall_s": round(time.time() - t0, 2)}
+        out = batched[i] if batched is not None else ev.run_group(policy, jax.random.fold_in(base, k), k, rounds)
+        m = {"n_objects": k, **summarize(out, time_model)}
+        if batched is None:
+            m["wall_s"] = round(time.time() - t0, 2)
         per_group.append(m)
         parts.append(out)
         raw[str(k)] = out.to_json()
         if log is not None:
-            log(f"group {k}: {m['successes']}/{m['attempts']} grasps, {m['rounds']} rounds, "
-                f"{m['wall_s']} s")
+            log(f"group {k}: {m['successes']}/{m['attempts']} grasps, {m['rounds']} rounds"
+                + (f", {m['wall_s']} s" if "wall_s" in m else ""))
     overall = summarize(RoundOutcomes.concatenate(parts), time_model)
     return {
         "policy": policy.name, "seed": seed, "rounds": rounds, "groups": list(groups),
         "max_attempts": f"2 * objects + {cfg.benchmark.max_attempts_extra}",
         "time_model": dataclasses.asdict(time_model),
         "groups_metrics": per_group, "overall": overall, "outcomes": raw,
+        "wall_s": round(time.time() - t_all, 2), "batch_groups": bool(batch_groups),
     }
 
 
@@ -638,7 +724,7 @@ def save_report(report: dict, path: str, cfg: Optional[Config] = None, extra: Op
 
 __all__ = [
     "POLICIES", "DEFAULT_GROUPS", "DEFAULT_ROUNDS", "MotionTimeModel", "RoundOutcomes", "Policy", "Evaluator",
-    "heightmap_policy", "ggcnn_plan",
+    "heightmap_policy", "ggcnn_plan", "vags_plan", "vags_params",
     "summarize", "make_policy", "random_act", "highest_act", "heuristic_act", "gdnet_act", "min_width_grasp",
     "load_gdnet", "check_groups", "evaluate", "format_table", "save_report",
 ]

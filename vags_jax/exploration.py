@@ -48,20 +48,26 @@ def select_grasp(key: jax.Array, q: jax.Array, height: jax.Array, eps, cfg: Expl
     Returns ``action (B, 3) int32 [rotation, row, col]`` and ``explored (B,) bool``.
     """
     b, r, h, w = q.shape
+    greedy_flat = jnp.argmax(q.reshape(b, -1), axis=-1)
+    greedy = jnp.stack(jnp.unravel_index(greedy_flat, (r, h, w)), axis=-1).astype(jnp.int32)
+    return select_grasp_from_greedy(key, greedy, r, height, eps, cfg)
+
+
+def select_grasp_from_greedy(key: jax.Array, greedy: jax.Array, n_rotations: int, height: jax.Array,
+                             eps, cfg: Exploration):
+    """``select_grasp`` given the greedy action (B, 3) [rotation, row, col] instead of the Q
+    maps (stages 2 and 3 keep GDNet's argmax, not its (B, R, H, W) maps).  The same draws as
+    ``select_grasp`` for the same key.  Returns ``action (B, 3) int32``, ``explored (B,) bool``."""
+    b, h, w = height.shape
     k_explore, k_pixel, k_rot = jax.random.split(key, 3)
     explored = _explore_mask(k_explore, eps, b)
-
-    greedy_flat = jnp.argmax(q.reshape(b, -1), axis=-1)
-    g_rot, g_row, g_col = jnp.unravel_index(greedy_flat, (r, h, w))
-
     pix = jax.vmap(lambda k, hm: _random_pixel(k, hm, cfg))(jax.random.split(k_pixel, b), height)
     x_row, x_col = jnp.unravel_index(pix, (h, w))
-    x_rot = jax.random.randint(k_rot, (b,), 0, r)
-
+    x_rot = jax.random.randint(k_rot, (b,), 0, n_rotations)
     action = jnp.where(
         explored[:, None],
         jnp.stack([x_rot, x_row, x_col], axis=-1),
-        jnp.stack([g_rot, g_row, g_col], axis=-1),
+        greedy,
     ).astype(jnp.int32)
     return action, explored
 

@@ -1,0 +1,113 @@
+"""Pictures of VAGS deciding and grasping, round by round (``eval.py --record DIR``).
+
+The recorded rounds replay the benchmark's scenes (the same per-round scene keys as
+``Evaluator.run_groups``) step by step on the host, so that every intermediate map can be
+kept: for each attempt of each recorded round, the global colour and height heightmaps,
+GDNet's Q (max over rotations) and VANet's Q, the decision, the close depth image with
+GG-CNN's smoothed quality / angle / width maps and its peak, the executed grasp and the
+outcome (``vags_jax.record``: one PNG per attempt, one JSON per round).  The policy's sensor
+noise draws differ from the benchmark run's, so a recorded round may end differently from the
+same round in the table.
+"""
+from __future__ import annotations
+
+import os
+from typing import Sequence
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from vags_jax import camera
+from vags_jax.config import Config
+from vags_jax.decision import decide, plan_attempt
+from vags_jax.ggcnn_grasp import network_input
+from vags_jax.ggcnn_process import postprocess
+from vags_jax.networks import make_qnet
+from vags_jax.networks.ggcnn import GGCNN
+from vags_jax.record import AttemptRecord, write_round
+
+
+def _trace_fn(cfg: Config, env):
+    gdnet, vanet, model = make_qnet(cfg.net, "gdnet"), make_qnet(cfg.net, "vanet"), GGCNN()
+
+    def trace(params, key, state):
+        q_grasp = gdnet.apply(params["gdnet"], state.color, state.height, False)
+        q_view = vanet.apply(params["vanet"], state.color, state.height, False)
+        decision = decide(q_grasp, q_view, params["threshold"])
+        attempt, extra = plan_attempt(cfg, env, state, decision, params["ggcnn"], key, model, details=True)
+        x, _, _ = network_input(extra["image"].depth, cfg.camera, cfg.ggcnn)
+        quality, angle, width = postprocess(model.apply(params["ggcnn"], x), cfg.ggcnn)
+        cell = camera.world_xy_to_pixel(attempt.position[:, :2], cfg.workspace)
+        info = {"q_grasp": q_grasp.max(axis=1), "grasp": decision.grasp, "q_max": decision.q_max,
+                "q_view": q_view, "view": decision.view, "direct": decision.direct,
+                "local_depth": extra["image"].depth, "quality": quality, "angle": angle, "width": width,
+                "pixel": extra["image_grasp"].pixel, "angle_peak": extra["image_grasp"].angle,
+                "color": state.color, "height": state.height, "cell": cell}
+        return attempt, info
+
+    return jax.jit(trace)
+
+
+def record_rounds(cfg: Config, evaluator, params: dict, seed: int, groups: Sequence[int], rounds: int,
+                  bench_rounds: int, out_dir: str, log=None) -> list[str]:
+    """Plays the first ``rounds`` rounds (of the benchmark's ``bench_rounds``) of each group in
+    ``groups`` (one batch) with the ``vags`` policy's ``params`` (``evaluate.vags_params``) and
+    writes their pictures under ``out_dir``/objects<k>/ -> the written paths."""
+    if not 1 <= rounds <= bench_rounds:
+        raise ValueError(f"record_rounds: rounds must be in 1..{bench_rounds} (the benchmark's rounds), got {rounds}")
+    from vags_jax.env import where_worlds
+
+    env = evaluator.env
+    base = jax.random.PRNGKey(seed)
+    keys, counts = [], []
+    for k in groups:  # the scene keys of Evaluator.run_groups, first `rounds` rounds of each group
+        k_reset, _ = jax.random.split(jax.random.fold_in(base, k))
+        k_sim, _ = jax.random.split(k_reset)
+        keys.append(jax.random.split(k_sim, bench_rounds)[:rounds])
+        counts.append(jnp.full((rounds,), k, jnp.int32))
+    B = rounds * len(groups)
+    env.prepare(B)
+    k_obs, k_loop = jax.random.split(jax.random.fold_in(base, 1 << 20))
+    state = evaluator._reset_worlds(jnp.concatenate(keys), jnp.concatenate(counts), k_obs)
+    trace = _trace_fn(cfg, env)
+    step = jax.jit(lambda s, a, k: env.step_attempt(s, a, k))
+    extra = cfg.benchmark.max_attempts_extra
+    done = np.asarray(env.round_over(state, extra) | state.sim.error)
+    records: dict[int, list[AttemptRecord]] = {i: [] for i in range(B)}
+    t = 0
+    while not done.all():
+        k_loop, k_act, k_step = jax.random.split(k_loop, 3)
+        attempt, info = trace(params, k_act, state)
+        new, result = step(state, attempt, k_step if cfg.camera.noise.enabled else None)
+        state = where_worlds(jnp.asarray(done), state, new)
+        info, success = jax.device_get(info), np.asarray(result.success)
+        pos, yaw = np.asarray(attempt.position), np.asarray(attempt.yaw)
+        for i in np.flatnonzero(~done):
+            direct = bool(info["direct"][i])
+            records[i].append(AttemptRecord(
+                round_index=i % rounds, attempt_index=t, n_objects=int(groups[i // rounds]),
+                color=info["color"][i], height=info["height"][i], q_grasp=info["q_grasp"][i],
+                grasp=info["grasp"][i], q_max=float(info["q_max"][i]), threshold=float(params["threshold"]),
+                direct=direct, success=bool(success[i]), grasp_world=pos[i], yaw=float(yaw[i]),
+                q_view=info["q_view"][i], view=info["view"][i],
+                local_depth=None if direct else info["local_depth"][i],
+                ggcnn_quality=None if direct else info["quality"][i],
+                ggcnn_angle=None if direct else info["angle"][i],
+                ggcnn_width=None if direct else info["width"][i],
+                ggcnn_pixel=None if direct else info["pixel"][i],
+                ggcnn_angle_peak=None if direct else float(info["angle_peak"][i]),
+                n_rotations=cfg.net.n_rotations,
+                grasp_cell=np.clip(info["cell"][i], 0, cfg.workspace.heightmap_px - 1).astype(np.float32)))
+        done = done | np.asarray(env.round_over(state, extra) | state.sim.error)
+        t += 1
+    paths = []
+    for i, recs in records.items():
+        if recs:
+            paths += write_round(os.path.join(out_dir, f"objects{groups[i // rounds]}"), recs)
+    if log is not None:
+        log(f"recorded {B} rounds ({sum(len(r) for r in records.values())} attempts) in {out_dir}")
+    return paths
+
+
+__all__ = ["record_rounds"]

@@ -1,0 +1,323 @@
+"""Training stages 2 and 3 (paper section 3.2): VANet, then GDNet and VANet together.
+
+Both stages play VAGS itself in B parallel worlds of ``stageN.min_objects..max_objects``
+objects.  One *iteration* is, for every world at once:
+
+  1. the decision (``vags_jax.decision``, paper Fig. 2): grasp directly where the largest GDNet
+     Q of the global view exceeds the threshold (``vags.threshold``, or the value calibrated at
+     stage 2's start), else move the camera;
+  2. DAES (``vags_jax.exploration``) picks the viewpoint among object pixels with probability
+     epsilon (VANet's argmax otherwise); in stage 3 it also explores GDNet's direct grasps
+     (stage 2 grasps directly at GDNet's argmax: GDNet is frozen);
+  3. the attempt runs (``VagsEnv.step_attempt_or_reset``): a direct grasp (1 motion) or the move
+     to the viewpoint, the close depth image, GG-CNN's grasp (2 motions).  Worlds whose round
+     ended start a new scene in the same physics loop, as in stage 1;
+  4. the new global views are rendered and GDNet's largest Q on them is computed: it is the
+     next iteration's decision, and the "after" of VANet's reward (``view_reward``);
+  5. transitions: the viewpoint worlds' into VANet's replay (action [row, col], reward of
+     ``view_reward``); in stage 3 the direct worlds' into GDNet's replay (action [rotation,
+     row, col], reward 1 on success); the last attempt of a round is terminal;
+  6. ``updates_per_iteration`` DQN updates from replay: VANet's (stage 2), or GDNet's and
+     VANet's one after the other, alternating (stage 3); a network's updates start once its
+     replay holds ``learning_starts`` transitions.
+
+GDNet's argmax and largest Q are carried from one iteration to the next (step 4), so GDNet runs
+once per iteration; in stage 3 the decision therefore uses the GDNet of the previous
+iteration's start (before its updates).  GG-CNN (from ``train.py --stage ggcnn``) is frozen.
+
+Everything is one ``lax.scan`` inside one jit.  ``VagsStage.run(state, n)`` advances n
+iterations; running the same chunks from a restored state gives bit-identical results.
+``stage2(...)`` / ``stage3(...)`` are the stages as pure functions.
+"""
+from __future__ import annotations
+
+from typing import Any, Optional
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from flax import struct
+
+from vags_jax import dqn, exploration, replay
+from vags_jax.config import Config, Stage, Vags
+from vags_jax.decision import Decision, plan_attempt
+from vags_jax.env import EnvState, VagsEnv
+from vags_jax.networks import init_qnet, make_qnet
+from vags_jax.networks.ggcnn import GGCNN
+
+
+@struct.dataclass
+class VagsTrainState:
+    """What stages 2 and 3 carry between iterations (a checkpointable pytree).
+
+    env: B worlds; gdnet / vanet: learners (``dqn.TrainState``; GDNet is frozen in stage 2);
+    vanet_replay / gdnet_replay: prioritized replays of ``GraspTransition`` (VANet's actions
+    (2,) [row, col]; GDNet's (3,), stage 3 only -- stage 2 keeps a one-slot buffer that is
+    never written); ggcnn: GG-CNN's ``{"params"}`` (frozen); threshold: () float32, the
+    decision threshold; gd_grasp: (B, 3) int32 GDNet's argmax [rotation, row, col] on each
+    world's current global view; gd_qmax: (B,) float32 its largest Q; key: (2,) uint32;
+    iteration, attempts: () int32.
+    """
+
+    env: EnvState
+    gdnet: dqn.TrainState
+    vanet: dqn.TrainState
+    vanet_replay: replay.ReplayState
+    gdnet_replay: replay.ReplayState
+    ggcnn: Any
+    threshold: jax.Array
+    gd_grasp: jax.Array
+    gd_qmax: jax.Array
+    key: jax.Array
+    iteration: jax.Array
+    attempts: jax.Array
+
+
+# Per-iteration metrics returned by VagsStage.run, each of shape (n,).
+METRICS = (
+    "success_rate", "success_direct", "success_view", "view_share", "view_bonus_rate", "explored",
+    "epsilon", "loss_vanet", "td_abs_vanet", "loss_gdnet", "td_abs_gdnet", "q_max", "q_view_max",
+    "threshold", "rounds_ended", "rounds_cleared", "objects_on_table", "physics_errors", "buffer_overflow",
+    "replay_size_vanet", "replay_size_gdnet", "updates", "attempts", "attempts_total", "worlds_resetting",
+)
+# Metrics that must stay finite (train.py stops a run whose learning diverges).
+FINITE_METRICS = ("loss_vanet", "td_abs_vanet", "loss_gdnet", "td_abs_gdnet", "q_max", "q_view_max")
+
+
+def view_reward(success: jax.Array, q_max_before: jax.Array, q_max_after: jax.Array, vcfg: Vags) -> jax.Array:
+    """VANet's reward (paper eq. 5, reconstructed; ``config.Vags``): success (B,) bool, GDNet's
+    largest Q before the move and on the next global view, (B,) each -> (B,) float32:
+    0 on failure; ``success_reward`` + ``view_bonus`` * [after > before] on success."""
+    bonus = (q_max_after > q_max_before).astype(jnp.float32) * vcfg.view_bonus
+    return jnp.where(success, vcfg.success_reward + bonus, 0.0).astype(jnp.float32)
+
+
+def calibrated_threshold(q_max: jax.Array, vcfg: Vags) -> jax.Array:
+    """``vags.threshold`` when set, else the ``vags.threshold_quantile`` quantile of q_max (B,)
+    (GDNet's largest Q over stage 2's first global views) -> () float32."""
+    if vcfg.threshold is not None:
+        return jnp.asarray(vcfg.threshold, jnp.float32)
+    return jnp.quantile(q_max.astype(jnp.float32), vcfg.threshold_quantile).astype(jnp.float32)
+
+
+def learn(update, learner: dqn.TrainState, buffer: replay.ReplayState, key: jax.Array, cfg: Config,
+          n_updates: int, learning_starts: int):
+    """``n_updates`` DQN updates of one network from its replay (none until it holds
+    ``learning_starts``) -> (learner, buffer, (mean loss, mean |td|), updates done)."""
+    ready = buffer.size >= max(learning_starts, 1)
+
+    def one(carry, k):
+        def do(args):
+            learner, buffer = args
+            idx, batch, w = replay.sample(buffer, k, cfg.dqn.batch_size, cfg.replay.alpha, cfg.replay.beta)
+            learner, m, td = update(learner, batch, w)
+            buffer = replay.update_priorities(buffer, idx, td, cfg.replay.priority_eps)
+            return (learner, buffer), jnp.stack([m["loss"], m["td_abs_mean"]])
+
+        return jax.lax.cond(ready, do, lambda a: (a, jnp.zeros((2,), jnp.float32)), carry)
+
+    (learner, buffer), stats = jax.lax.scan(one, (learner, buffer), jax.random.split(key, n_updates))
+    return learner, buffer, stats.mean(axis=0), jnp.where(ready, n_updates, 0)
+
+
+def _example_transition(H: int, action_dim: int):
+    color, height = jnp.zeros((H, H, 3), jnp.uint8), jnp.zeros((H, H), jnp.float32)
+    return replay.make_grasp_transition(color, height, jnp.zeros((action_dim,), jnp.int32), 0.0, color, height,
+                                        False)
+
+
+class VagsStage:
+    """Stage 2 (``which=2``: VANet, GDNet frozen) or stage 3 (``which=3``: both, alternating).
+    Build once per config; ``run`` is compiled per chunk length n."""
+
+    def __init__(self, cfg: Config, which: int, env: Optional[VagsEnv] = None):
+        if which not in (2, 3):
+            raise ValueError(f"VagsStage: which must be 2 or 3, got {which!r}")
+        self.cfg, self.which = cfg, which
+        self.stage: Stage = cfg.stage2 if which == 2 else cfg.stage3
+        self.env = env if env is not None else VagsEnv(cfg)
+        self.gdnet = make_qnet(cfg.net, "gdnet")
+        self.vanet = make_qnet(cfg.net, "vanet")
+        self.ggcnn = GGCNN()
+        self.update_gdnet = dqn.make_update_step(self._apply_gdnet, cfg.dqn, executed_rotation_only=True)
+        self.update_vanet = dqn.make_update_step(self._apply_vanet, cfg.dqn)
+        self._run_jit = jax.jit(self._run_impl, static_argnums=1)
+        self._greedy_jit = jax.jit(self._greedy)
+
+    def _apply_gdnet(self, variables, color, height, train, mutable=False, rotations=None):
+        return self.gdnet.apply(variables, color, height, train, rotations=rotations, mutable=mutable)
+
+    def _apply_vanet(self, variables, color, height, train, mutable=False):
+        return self.vanet.apply(variables, color, height, train, mutable=mutable)
+
+    @staticmethod
+    def _vars(ts: dqn.TrainState) -> dict:
+        return {"params": ts.params, "batch_stats": ts.batch_stats}
+
+    def _greedy(self, gdnet: dqn.TrainState, s: EnvState):
+        """GDNet (eval mode) on the global views -> argmax (B, 3) [rotation, row, col], max (B,)."""
+        q = self._apply_gdnet(self._vars(gdnet), s.color, s.height, False)
+        b, r, h, w = q.shape
+        flat = q.reshape(b, -1)
+        best = jnp.argmax(flat, axis=1)
+        q_max = jnp.take_along_axis(flat, best[:, None], axis=1)[:, 0].astype(jnp.float32)
+        return jnp.stack(jnp.unravel_index(best, (r, h, w)), axis=-1).astype(jnp.int32), q_max
+
+    def _n_objects(self, key: jax.Array, n_worlds: int) -> jax.Array:
+        s = self.stage
+        return jax.random.randint(key, (n_worlds,), s.min_objects, s.max_objects + 1, jnp.int32)
+
+    def init(self, key: jax.Array, gdnet: dqn.TrainState, ggcnn_params, vanet: Optional[dqn.TrainState] = None,
+             threshold=None) -> VagsTrainState:
+        """Fresh worlds and replays.  gdnet: stage 1's learner (stage 2) or stage 2's (stage 3);
+        vanet: None for a fresh VANet (stage 2) or stage 2's; ggcnn_params: {"params"} of GG-CNN;
+        threshold: the decision threshold (stage 3: stage 2's), or None to calibrate it
+        (``calibrated_threshold``) on these first views."""
+        cfg = self.cfg
+        key = jnp.asarray(key)
+        if jnp.issubdtype(key.dtype, jax.dtypes.prng_key):
+            key = jax.random.key_data(key)
+        k_net, k_n, k_env, k_loop = jax.random.split(key, 4)
+        H = cfg.workspace.heightmap_px
+        if vanet is None:
+            vanet = dqn.create_train_state(init_qnet(k_net, self.vanet, H, H), cfg.dqn)
+        env_state = self.env.reset(k_env, np.asarray(self._n_objects(k_n, self.stage.n_worlds)))
+        gd_grasp, gd_qmax = self._greedy_jit(gdnet, env_state)
+        thr = calibrated_threshold(gd_qmax, cfg.vags) if threshold is None else jnp.asarray(threshold, jnp.float32)
+        va_buffer = replay.init(cfg.replay.capacity, _example_transition(H, 2))
+        gd_buffer = replay.init(cfg.replay.capacity if self.which == 3 else 1, _example_transition(H, 3))
+        z = jnp.zeros((), jnp.int32)
+        return VagsTrainState(env=env_state, gdnet=gdnet, vanet=vanet, vanet_replay=va_buffer,
+                              gdnet_replay=gd_buffer, ggcnn=ggcnn_params, threshold=thr.reshape(()),
+                              gd_grasp=gd_grasp, gd_qmax=gd_qmax, key=k_loop, iteration=z, attempts=z)
+
+    # ------------------------------------------------------------------ one iteration
+
+    def _learn(self, state: VagsTrainState, va_buffer, gd_buffer, key):
+        cfg, st = self.cfg, self.stage
+        if self.which == 2:
+            vanet, va_buffer, va_stats, n_va = learn(self.update_vanet, state.vanet, va_buffer, key, cfg,
+                                                     st.updates_per_iteration, st.learning_starts)
+            return state.gdnet, vanet, gd_buffer, va_buffer, jnp.zeros((2,), jnp.float32), va_stats, n_va
+
+        # Stage 3: one GDNet update, then one VANet update, and so on.
+        def one(carry, k):
+            gdnet, vanet, gd_b, va_b = carry
+            k_g, k_v = jax.random.split(k)
+            gdnet, gd_b, gs, ng = learn(self.update_gdnet, gdnet, gd_b, k_g, cfg, 1, st.learning_starts)
+            vanet, va_b, vs, nv = learn(self.update_vanet, vanet, va_b, k_v, cfg, 1, st.learning_starts)
+            return (gdnet, vanet, gd_b, va_b), (gs, vs, ng + nv)
+
+        keys = jax.random.split(key, st.updates_per_iteration)
+        (gdnet, vanet, gd_buffer, va_buffer), (gs, vs, n) = jax.lax.scan(
+            one, (state.gdnet, state.vanet, gd_buffer, va_buffer), keys)
+        # Mean loss over the updates that ran (a replay not yet ready contributes zeros).
+        return gdnet, vanet, gd_buffer, va_buffer, gs.mean(axis=0), vs.mean(axis=0), n.sum()
+
+    def _iteration(self, state: VagsTrainState, _):
+        cfg, env, st = self.cfg, self.env, self.stage
+        key, k_gx, k_vx, k_img, k_obs, k_n, k_reset, k_learn = jax.random.split(state.key, 8)
+        s = state.env
+        B = s.n_worlds
+        eps = exploration.epsilon(state.iteration, cfg.exploration)
+        q_view = self._apply_vanet(self._vars(state.vanet), s.color, s.height, False)  # (B, H, W)
+        view, v_explored = exploration.select_pixel(k_vx, q_view, s.height, eps, cfg.exploration)
+        if self.which == 3:
+            grasp, g_explored = exploration.select_grasp_from_greedy(
+                k_gx, state.gd_grasp, cfg.net.n_rotations, s.height, eps, cfg.exploration)
+        else:
+            grasp, g_explored = state.gd_grasp, jnp.zeros((B,), bool)
+        direct = state.gd_qmax > state.threshold
+        decision = Decision(direct=direct, grasp=grasp, view=view, q_max=state.gd_qmax)
+        attempt = plan_attempt(cfg, env, s, decision, state.ggcnn, k_img, self.ggcnn)
+
+        extra = st.max_attempts_extra
+        resetting = env.round_over(s, extra) | s.sim.error  # rounds that ended last iteration
+        acting = ~resetting
+        s2, result = env.step_attempt_or_reset(s, attempt, resetting, k_reset, self._n_objects(k_n, B),
+                                               observe=False)
+        s2 = env.with_observation(s2, k_obs if cfg.camera.noise.enabled else None)
+        gd_grasp2, gd_qmax2 = self._greedy(state.gdnet, s2)
+        success = result.success & acting
+        over = env.round_over(s2, extra) | s2.sim.error
+        viewing, direct_acting = acting & ~direct, acting & direct
+
+        r_view = view_reward(success, state.gd_qmax, gd_qmax2, cfg.vags)
+        va_buffer = replay.add(state.vanet_replay, replay.make_grasp_transition(
+            s.color, s.height, view, r_view, s2.color, s2.height, over), mask=viewing)
+        gd_buffer = state.gdnet_replay
+        if self.which == 3:
+            r_grasp = jnp.where(success, cfg.vags.success_reward, 0.0).astype(jnp.float32)
+            gd_buffer = replay.add(gd_buffer, replay.make_grasp_transition(
+                s.color, s.height, grasp, r_grasp, s2.color, s2.height, over), mask=direct_acting)
+        gdnet, vanet, gd_buffer, va_buffer, gd_stats, va_stats, n_updates = self._learn(
+            state, va_buffer, gd_buffer, k_learn)
+
+        n_act = acting.sum()
+        n_view, n_direct = viewing.sum(), direct_acting.sum()
+        view_success = (success & viewing).sum()
+        attempts = state.attempts + n_act
+        per = lambda num, den: num / jnp.maximum(den, 1)  # noqa: E731
+        explored = jnp.where(direct, g_explored, v_explored)
+        metrics = {
+            "success_rate": per(success.sum(), n_act),
+            "success_direct": per((success & direct_acting).sum(), n_direct),
+            "success_view": per(view_success, n_view),
+            "view_share": per(n_view, n_act),
+            "view_bonus_rate": per((viewing & success & (gd_qmax2 > state.gd_qmax)).sum(), view_success),
+            "explored": per((explored & acting).sum(), n_act),
+            "epsilon": eps,
+            "loss_vanet": va_stats[0], "td_abs_vanet": va_stats[1],
+            "loss_gdnet": gd_stats[0], "td_abs_gdnet": gd_stats[1],
+            "q_max": state.gd_qmax.mean(),
+            "q_view_max": q_view.reshape(B, -1).max(axis=1).mean(),
+            "threshold": state.threshold,
+            "rounds_ended": (over & acting).sum(),
+            "rounds_cleared": (acting & (env.n_remaining(s2) == 0)).sum(),
+            "objects_on_table": env.n_remaining(s2).mean(),
+            "physics_errors": s2.sim.error.sum(),
+            "buffer_overflow": s2.sim.overflow.sum(),
+            "replay_size_vanet": va_buffer.size,
+            "replay_size_gdnet": gd_buffer.size if self.which == 3 else 0,
+            "updates": n_updates,
+            "attempts": n_act,
+            "attempts_total": attempts,
+            "worlds_resetting": resetting.sum(),
+        }
+        metrics = {k: jnp.asarray(v, jnp.float32) for k, v in metrics.items()}
+        new_state = state.replace(env=s2, gdnet=gdnet, vanet=vanet, vanet_replay=va_buffer, gdnet_replay=gd_buffer,
+                                  gd_grasp=gd_grasp2, gd_qmax=gd_qmax2, key=key,
+                                  iteration=state.iteration + 1, attempts=attempts)
+        return new_state, metrics
+
+    def _run_impl(self, state: VagsTrainState, n: int):
+        return jax.lax.scan(self._iteration, state, None, length=n)
+
+    # ------------------------------------------------------------------ public
+
+    def run(self, state: VagsTrainState, n: int):
+        """Advance ``n`` iterations -> (state, metrics dict of (n,) float32 arrays)."""
+        if not isinstance(n, int) or n < 1:
+            raise ValueError(f"run: n must be a positive int, got {n!r}")
+        self.env.prepare(state.env.n_worlds)
+        return self._run_jit(state, n)
+
+
+def stage2(cfg: Config, key: jax.Array, gdnet: dqn.TrainState, ggcnn_params, env: Optional[VagsEnv] = None):
+    """Stage 2 as one pure function: (key, stage 1's GDNet learner, GG-CNN) -> (VANet learner,
+    threshold, metrics (stage2.iterations,))."""
+    stage = VagsStage(cfg, 2, env)
+    state, metrics = stage.run(stage.init(key, gdnet, ggcnn_params), cfg.stage2.iterations)
+    return state.vanet, state.threshold, metrics
+
+
+def stage3(cfg: Config, key: jax.Array, gdnet: dqn.TrainState, vanet: dqn.TrainState, ggcnn_params, threshold,
+           env: Optional[VagsEnv] = None):
+    """Stage 3 as one pure function -> (GDNet learner, VANet learner, metrics (stage3.iterations,))."""
+    stage = VagsStage(cfg, 3, env)
+    state, metrics = stage.run(stage.init(key, gdnet, ggcnn_params, vanet, threshold), cfg.stage3.iterations)
+    return state.gdnet, state.vanet, metrics
+
+
+__all__ = ["VagsTrainState", "VagsStage", "METRICS", "FINITE_METRICS", "view_reward", "calibrated_threshold",
+           "learn", "stage2", "stage3"]
