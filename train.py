@@ -388,7 +388,7 @@ def run_chunks(name: str, stage, state, start_it: int, total: int, out_dir: str,
                 f.write(json.dumps(row) + "\n")
         diverged = nonfinite(m, it, finite)
         if diverged:
-            if saved_it != it:  # keep the last good state as a checkpoint
+            if saved_it != it and not getattr(stage, "donates", False):  # keep the last good state
                 checkpoint.save(out_dir, it, good)
                 saved_it = it
             if not args.quiet:
