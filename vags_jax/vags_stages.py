@@ -189,10 +189,11 @@ class VagsStage:
         thr = calibrated_threshold(gd_qmax, cfg.vags) if threshold is None else jnp.asarray(threshold, jnp.float32)
         va_buffer = replay.init(cfg.replay.capacity, _example_transition(H, 2))
         gd_buffer = replay.init(cfg.replay.capacity if self.which == 3 else 1, _example_transition(H, 3))
-        z = jnp.zeros((), jnp.int32)
+        # Every leaf its own buffer (``run`` donates the state, and a buffer may be donated once).
         return VagsTrainState(env=env_state, gdnet=gdnet, vanet=vanet, vanet_replay=va_buffer,
                               gdnet_replay=gd_buffer, ggcnn=ggcnn_params, threshold=thr.reshape(()),
-                              gd_grasp=gd_grasp, gd_qmax=gd_qmax, key=k_loop, iteration=z, attempts=z)
+                              gd_grasp=gd_grasp, gd_qmax=gd_qmax, key=k_loop,
+                              iteration=jnp.zeros((), jnp.int32), attempts=jnp.zeros((), jnp.int32))
 
     # ------------------------------------------------------------------ one iteration
 
