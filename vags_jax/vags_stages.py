@@ -302,7 +302,20 @@ class VagsStage:
         if not isinstance(n, int) or n < 1:
             raise ValueError(f"run: n must be a positive int, got {n!r}")
         self.env.prepare(state.env.n_worlds)
-        return self._run_jit(state, n)
+        return self._run_jit(_distinct_buffers(state), n)
+
+
+def _distinct_buffers(tree):
+    """``tree`` with a copy of every array that appears in it more than once (a donated
+    argument may hold each buffer once)."""
+    leaves, treedef = jax.tree.flatten(tree)
+    seen, out = set(), []
+    for x in leaves:
+        if id(x) in seen:
+            x = jnp.array(x, copy=True)
+        seen.add(id(x))
+        out.append(x)
+    return jax.tree.unflatten(treedef, out)
 
 
 def stage2(cfg: Config, key: jax.Array, gdnet: dqn.TrainState, ggcnn_params, env: Optional[VagsEnv] = None):
