@@ -269,19 +269,26 @@ def prepare(args) -> SimpleNamespace:
                 f"unchanged); pass --set stage1.iterations=N with N > {step} to train further")
         return SimpleNamespace(cfg=cfg, step=step, arrays=None, done=done, raised_from=None)
     check_metrics_file(args.out)
-    arrays, step = checkpoint.read(args.out, step)
-    from vags_jax import stages
-
-    checkpoint.check_layout(args.out, step, arrays, stages.checkpoint_layout(cfg))
-    saved_it = int(arrays["iteration"]["00000"])  # check_layout found the one () int32 leaf
-    if saved_it != step:
-        raise checkpoint.CheckpointError(
-            f"checkpoint {step} in {args.out} holds iteration {saved_it}, not {step}: it was not "
-            f"written by train.py for this run; start a new run")
+    arrays = read_stage1_checkpoint(args.out, cfg, step)
     raised = run_cfg.stage1.iterations if asked and total != run_cfg.stage1.iterations else None
     if raised is not None:
         check_not_built_on(args.out, "stage1")
     return SimpleNamespace(cfg=cfg, step=step, arrays=arrays, done=None, raised_from=raised)
+
+
+def read_stage1_checkpoint(out: str, cfg, step: int) -> dict:
+    """Stage 1's checkpoint ``step`` read into host memory and checked against the config
+    (before anything is compiled) -> its arrays for ``checkpoint.fit``."""
+    from vags_jax import checkpoint, stages
+
+    arrays, step = checkpoint.read(out, step)
+    checkpoint.check_layout(out, step, arrays, stages.checkpoint_layout(cfg))
+    saved_it = int(arrays["iteration"]["00000"])  # check_layout found the one () int32 leaf
+    if saved_it != step:
+        raise checkpoint.CheckpointError(
+            f"checkpoint {step} in {out} holds iteration {saved_it}, not {step}: it was not "
+            f"written by train.py for this run; start a new run")
+    return arrays
 
 
 def check_not_built_on(out: str, name: str) -> None:
@@ -533,7 +540,8 @@ def prepare_pipeline(args, only):
             why = pipeline.ggcnn_reusable(args.out, cfg)
             if why:
                 raise ValueError(why)
-        return SimpleNamespace(cfg=cfg, fresh=True, changed={}, data_dir=check_data_dir(args.data_dir))
+        return SimpleNamespace(cfg=cfg, fresh=True, changed={}, data_dir=check_data_dir(args.data_dir),
+                               stage1_arrays=None)
     what = "--resume" if only is None else f"--stage {only}"
     if args.config is not None:
         raise ValueError(f"{what} takes the run's own config.json; drop --config")
@@ -549,14 +557,18 @@ def prepare_pipeline(args, only):
         raise ValueError(f"run directory {args.out!r} does not exist; {hint}")
     run_cfg = checkpoint.load_config(args.out)
     cfg = C.replace(run_cfg, **overrides)
+    if only is None and not any(pipeline.progress(args.out, n) for n in pipeline.ORDER):
+        raise ValueError(f"{args.out} has no checkpoint yet (the run stopped before its first one); "
+                         f"start it again without --resume (the directory is reused)")
     changed = {}
     for key in overrides:
         name = key.split(".")[0]
         old, new = getattr(run_cfg, name).iterations, getattr(cfg, name).iterations
         done = pipeline.progress(args.out, name)
         if new < done:
-            raise ValueError(f"{args.out} is already at {name} iteration {done}: the requested {key}={new} are "
-                             f"already done; pass {key} > {done} to train further")
+            raise ValueError(f"{args.out} is already at iteration {done} of {name}: the requested {key}={new} are "
+                             f"already done, so there is nothing to train (config.json unchanged); pass "
+                             f"{key} > {done} to train further")
         if new != old:
             check_not_built_on(args.out, name)
             changed[key] = (old, new)
@@ -576,7 +588,11 @@ def prepare_pipeline(args, only):
     data_dir = check_data_dir(args.data_dir) if only is None and pipeline.progress(args.out, "ggcnn") == 0 else None
     if only is None and pipeline.progress(args.out, "ggcnn") == 0:
         check_ggcnn_config(cfg)
-    return SimpleNamespace(cfg=cfg, fresh=False, changed=changed, data_dir=data_dir)
+    stage1_arrays = None
+    done1 = pipeline.progress(args.out, "stage1")
+    if only is None and 0 < done1 < cfg.stage1.iterations:  # checked now, not after GG-CNN's minutes
+        stage1_arrays = read_stage1_checkpoint(args.out, cfg, done1)
+    return SimpleNamespace(cfg=cfg, fresh=False, changed=changed, data_dir=data_dir, stage1_arrays=stage1_arrays)
 
 
 def run_vags_stage(cfg, args, name: str, deadline, env=None):
@@ -671,15 +687,8 @@ def main_pipeline(args, only) -> int:
                 except ValueError as e:
                     return cli.fail(PROG, e)
             if name == "stage1":
-                sp = SimpleNamespace(step=done, arrays=None, raised_from=None)
-                if done:
-                    from vags_jax import stages
-
-                    try:
-                        sp.arrays, _ = checkpoint.read(args.out, done)
-                        checkpoint.check_layout(args.out, done, sp.arrays, stages.checkpoint_layout(cfg))
-                    except ValueError as e:
-                        return cli.fail(PROG, e)
+                sp = SimpleNamespace(step=done, arrays=getattr(plan, "stage1_arrays", None), raised_from=None)
+                plan.stage1_arrays = None
                 summary = run_stage1(cfg, args, sp, deadline, env)
             else:
                 summary = run_vags_stage(cfg, args, name, deadline, env)

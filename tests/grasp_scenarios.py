@@ -13,7 +13,7 @@ CUBE, LONG = 0, 1
 def tiny_config(**overrides) -> Config:
     return replace(Config(), **{
         "scene.shapes": ("cube", "cuboid_long"), "scene.copies_per_shape": 1,
-        "scene.max_objects": 2, "stage1.max_objects": 2,
+        "scene.max_objects": 2, "stage1.max_objects": 2, "stage2.max_objects": 2, "stage3.max_objects": 2,
         # The first benchmark's scene draw (spread-out drops, exact palette colours): these
         # tests check the physics of scripted grasps and resets; piles are tested in
         # test_clutter.py.

@@ -528,13 +528,16 @@ TRAIN_ONLY = {  # eval.py reads only the learner, which these leave intact (or m
 }
 
 
+@pytest.mark.parametrize("stage", [[], ["--stage", "gdnet"]], ids=["pipeline", "stage1"])
 @pytest.mark.parametrize("kind", sorted({**DAMAGE, **TRAIN_ONLY}))
-def test_train_resume_names_the_damage(kind, tmp_path, capsys, fake_run):
+def test_train_resume_names_the_damage(kind, stage, tmp_path, capsys, fake_run):
+    """The whole pipeline's --resume (which would train GG-CNN first in this run) and stage 1's
+    both check stage 1's checkpoint before anything else."""
     run = fake_run(tmp_path)
     _damage(run, kind)
     before = _snapshot(run)
     t = time.time()
-    code, line = _cli(train.main, ["--out", run, "--resume", "--quiet"], capsys)
+    code, line = _cli(train.main, ["--out", run, "--resume", "--quiet"] + stage, capsys)
     assert code == 2 and line.startswith("train.py: error: ")
     assert re.search({**DAMAGE, **TRAIN_ONLY}[kind], line), line
     assert _snapshot(run) == before, "a refused --resume must not touch the run"
@@ -583,7 +586,7 @@ def test_eval_heuristic_on_a_run_reads_only_its_config(tmp_path, capsys, fake_ru
 def test_resume_never_rewrites_the_config_silently(argv, code, msg, tmp_path, capsys, fake_run):
     run = fake_run(tmp_path)
     before = _snapshot(run)
-    got, line = _cli(train.main, ["--out", run, "--resume", "--quiet"] + argv, capsys)
+    got, line = _cli(train.main, ["--out", run, "--resume", "--stage", "gdnet", "--quiet"] + argv, capsys)
     assert got == code and re.search(msg, line), line
     assert _snapshot(run) == before
 
@@ -623,7 +626,12 @@ EVAL_FLAG_CASES = [
     (["--set", "benchmark.rounds=0"], r"benchmark\.rounds must be"),
     (["--set", "benchmark.groups=[1, 11]"], r"benchmark\.groups .* go above scene\.max_objects \(3\)"),
     (["--speed", "1", "--set", "benchmark.speed=2"], r"give the speed once"),
-    (["--step", "3"], r"--step selects a gdnet checkpoint; policy 'heuristic' uses none"),
+    (["--step", "3"], r"--step selects a gdnet or vags checkpoint; policy 'heuristic' uses none"),
+    (["--policy", "vags"], r"policy vags needs --run"),
+    (["--no-viewpoint"], r"--no-viewpoint is for --policy vags, not heuristic"),
+    (["--threshold-sweep", "1.7:1.8:0.01"], r"--threshold-sweep is for --policy vags, not heuristic"),
+    (["--record", "pics"], r"--record is for --policy vags, not heuristic"),
+    (["--compare", "a.json"], r"--compare adds reports to --plot"),
     (["--set", "dqn.gamma=2"], r"dqn\.gamma must be in \[0, 1\)"),
     (["--set", "scene.max_objects=true"], r"scene\.max_objects must be an int, got True"),
     (["--set", 'scene.shapes=["cube", "cuboid_long", "blob"]'], r"unknown shape 'blob'"),
@@ -862,3 +870,50 @@ def test_command_line_exit_code_2_one_line(script, argv, msg, tmp_path, fake_run
     line = _one_line(p.stderr)
     assert line.startswith(f"{script}: error: ") and msg in line
     assert not os.path.exists(tmp_path / "o")
+
+
+# ----------------------------------------------------------------------------- stages 2, 3 and VAGS evaluation
+
+@pytest.mark.parametrize("argv,msg", [
+    (["--stage", "stage2"], r"stage2 starts from the end of GG-CNN on physics-labelled views, and .* has no "
+                            r"checkpoint there: run python train\.py --out .* --resume \(every stage in order\) "
+                            r"or --stage ggcnn first"),
+    (["--stage", "alternate"], r"stage3 starts from the end of GG-CNN"),
+    (["--stage", "stage3", "--set", "dqn.gamma=0.3"], r"with --stage stage3 only stage3\.iterations may change"),
+    (["--stage", "vanet", "--config", "tiny"], r"--stage stage2 takes the run's own config\.json; drop --config"),
+    (["--stage", "stage9"], r"argument --stage: invalid choice: 'stage9'"),
+])
+def test_a_later_stage_needs_the_earlier_ones(argv, msg, tmp_path, capsys, fake_run):
+    run = fake_run(tmp_path)
+    before = _snapshot(run)
+    code, line = _cli(train.main, ["--out", run, "--quiet"] + argv, capsys)
+    assert code == 2 and re.search(msg, line), line
+    assert _snapshot(run) == before
+
+
+def test_stage2_of_a_missing_run(tmp_path, capsys):
+    code, line = _cli(train.main, ["--out", str(tmp_path / "none"), "--stage", "stage2"], capsys)
+    assert code == 2 and "does not exist; train the stages before stage2 first" in line
+
+
+def test_eval_vags_on_a_stage1_run_says_how_to_train_it(tmp_path, capsys, fake_run):
+    run = fake_run(tmp_path)
+    code, line = _cli(eval_cli.main, ["--run", run, "--policy", "vags"], capsys)
+    assert code == 2 and f"run {run} has no VANet yet" in line and f"python train.py --out {run} --resume" in line
+
+
+@pytest.mark.parametrize("argv,msg", [
+    (["--threshold-sweep", "1.8:1.7:0.01"], r"--threshold-sweep '1\.8:1\.7:0\.01': STEP must be > 0 and STOP >= START"),
+    (["--threshold-sweep", "a:b:c"], r"--threshold-sweep 'a:b:c': expected START:STOP:STEP"),
+    (["--threshold-sweep", "1.7:1.8"], r"expected START:STOP:STEP"),
+    (["--threshold-sweep", "0:1:0"], r"STEP must be > 0"),
+    (["--threshold-sweep", "0:1000:0.001"], r"gives 1000001 values; at most 1000"),
+    (["--threshold-sweep", "nan:1:0.1"], r"expected START:STOP:STEP"),
+    (["--quantile-sweep", "0:2:0.5"], r"--quantile-sweep '0:2:0\.5': values must lie in \[0\.0, 1\.0\]"),
+    (["--no-viewpoint", "--threshold", "1.7"], r"--no-viewpoint fixes the threshold at -inf"),
+    (["--threshold", "inf"], r"--threshold must be a finite number"),
+])
+def test_eval_vags_flags_are_checked_first(argv, msg, tmp_path, capsys, fake_run):
+    run = fake_run(tmp_path)
+    code, line = _cli(eval_cli.main, ["--run", run, "--policy", "vags"] + argv, capsys)
+    assert code == 2 and re.search(msg, line), line

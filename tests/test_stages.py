@@ -1,4 +1,5 @@
-"""Stage 1 end to end on CPU: train a few iterations, checkpoint, resume, compare bit for bit."""
+"""Training end to end on CPU: the whole pipeline (stages 1, 2 and 3 after a GG-CNN) trained a
+few iterations, checkpointed, resumed inside stages and at stage boundaries, compared bit for bit."""
 import json
 import os
 import shutil
@@ -11,15 +12,23 @@ import pytest
 
 import eval as eval_cli
 import train
-from vags_jax import checkpoint, replay
+from vags_jax import checkpoint, ggcnn_stage, pipeline, replay, vags_stages
+from vags_jax import config as C
+from vags_jax.networks.ggcnn import init_ggcnn
 from vags_jax.stages import METRICS, Stage1
 
 from conftest import TINY_TEST_OVERRIDES
 
+# Stages 2 and 3 as small as stage 1 (2 worlds of 1-2 objects).
+VAGS_OVERRIDES = {f"stage{n}.{k}": v for n in (2, 3) for k, v in
+                  (("n_worlds", 2), ("max_objects", 2), ("learning_starts", 2))}
 
-def _overrides(iterations):
-    """train.py --set arguments giving the tiny_cfg fixture's config with `iterations`."""
-    return [f"{k}={v}" for k, v in TINY_TEST_OVERRIDES.items()] + [f"stage1.iterations={iterations}"]
+
+def _overrides(iterations, stage2=2, stage3=4):
+    """train.py --set arguments giving the tiny_cfg fixture's config with `iterations` (stage 1)."""
+    over = {**TINY_TEST_OVERRIDES, **VAGS_OVERRIDES, "stage1.iterations": iterations,
+            "stage2.iterations": stage2, "stage3.iterations": stage3}
+    return [f"{k}={v}" for k, v in over.items()]
 
 
 def _metrics(path):
@@ -30,15 +39,30 @@ def _metrics(path):
     return rows
 
 
+def _with_ggcnn(run):
+    """A GG-CNN in ``run`` for the test config (untrained weights: these tests check the
+    pipeline's mechanics, not GG-CNN; tests/test_ggcnn_data.py trains one)."""
+    cfg = C.replace(C.tiny(), **C.parse_overrides(_overrides(4)))
+    ggcnn_stage.save_ggcnn(run, init_ggcnn(jax.random.PRNGKey(3), size=cfg.ggcnn.input_size), {"steps": 0}, cfg)
+    return run
+
+
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
-    """One uninterrupted 4-iteration run, and a 2-iteration run resumed to 4 iterations."""
+    """The whole pipeline uninterrupted (stage 1: 4 iterations, stage 2: 2, stage 3: 4; its
+    GG-CNN already in the run directory, so it is reused), and the same pipeline run piece by
+    piece: stage 1 for 2 iterations, resumed to 4; stage 2 alone; stage 3 for 2 iterations
+    alone, then the pipeline resumed to stage 3's 4 iterations."""
     root = tmp_path_factory.mktemp("runs")
-    full, split = str(root / "full"), str(root / "split")
+    full, split = _with_ggcnn(str(root / "full")), _with_ggcnn(str(root / "split"))
     base = ["--config", "tiny", "--chunk", "2", "--quiet"]
     assert train.main(base + ["--out", full, "--set"] + _overrides(4)) == 0
-    assert train.main(base + ["--out", split, "--set"] + _overrides(2)) == 0
-    assert train.main(["--out", split, "--resume", "--chunk", "2", "--quiet", "--set", "stage1.iterations=4"]) == 0
+    assert train.main(base + ["--stage", "gdnet", "--out", split, "--set"] + _overrides(2)) == 0
+    resume = ["--out", split, "--chunk", "2", "--quiet"]
+    assert train.main(resume + ["--resume", "--stage", "gdnet", "--set", "stage1.iterations=4"]) == 0
+    assert train.main(resume + ["--stage", "stage2"]) == 0
+    assert train.main(resume + ["--stage", "stage3", "--set", "stage3.iterations=2"]) == 0
+    assert train.main(resume + ["--resume", "--set", "stage3.iterations=4"]) == 0
     return full, split
 
 
@@ -58,8 +82,93 @@ def test_resume_matches_uninterrupted_run(runs, target):
     assert checkpoint.tree_equal(a, b), "resumed run diverged from the uninterrupted one"
     assert not checkpoint.tree_equal(a.learner.params, target.learner.params), "no learning happened"
     ma, mb = _metrics(os.path.join(full, "metrics.jsonl")), _metrics(os.path.join(split, "metrics.jsonl"))
-    assert [r["iteration"] for r in ma] == [0, 1, 2, 3]
+    assert [r["iteration"] for r in ma] == [0, 1, 2, 3] and {r["stage"] for r in ma} == {"stage1"}
     assert ma == mb
+
+
+def _stage_arrays(run, name):
+    d = pipeline.stage_dir(run, name)
+    return checkpoint.read(d, pipeline.progress(run, name))
+
+
+def test_pipeline_resumed_at_stage_boundaries_matches_uninterrupted_run(runs):
+    """Stages 2 and 3 of the piecewise run (stage 2 started alone from stage 1's checkpoint,
+    stage 3 started alone and resumed inside) equal the uninterrupted pipeline's, bit for bit:
+    checkpoints, exported networks and metrics."""
+    full, split = runs
+    assert checkpoint.load_config(full) == checkpoint.load_config(split)
+    for name, steps in (("stage2", 2), ("stage3", 4)):
+        a, step_a = _stage_arrays(full, name)
+        b, step_b = _stage_arrays(split, name)
+        assert step_a == step_b == steps
+        assert a.keys() == b.keys() and all(
+            a[p].keys() == b[p].keys() and all(np.array_equal(a[p][k], b[p][k]) for k in a[p]) for p in a), name
+        na, _ = checkpoint.read(pipeline.networks_dir(full, name))
+        nb, _ = checkpoint.read(pipeline.networks_dir(split, name))
+        assert all(np.array_equal(na[p][k], nb[p][k]) for p in na for k in na[p])
+        ma = _metrics(os.path.join(full, name, "metrics.jsonl"))
+        assert [r["iteration"] for r in ma] == list(range(steps)) and {r["stage"] for r in ma} == {name}
+        assert ma == _metrics(os.path.join(split, name, "metrics.jsonl"))
+    with open(os.path.join(full, "timings.jsonl")) as f:
+        assert [json.loads(l)["stage"] for l in f] == ["stage1", "stage2", "stage3"]  # GG-CNN was reused
+
+
+def test_stage_hand_over(runs):
+    """Stage 2 starts from stage 1's final GDNet and never changes it; stage 3 starts from stage
+    2's networks and threshold; the replays hold exactly the transitions the metrics count."""
+    full, _ = runs
+    cfg = checkpoint.load_config(full)
+    gd1 = pipeline.stage1_gdnet(full, cfg)
+    gd2, va2, thr2 = pipeline.stage2_result(full, cfg)
+    assert checkpoint.tree_equal(gd1, gd2), "stage 2 changed the frozen GDNet"
+    nets = pipeline.load_vags(full, cfg)
+    assert nets.source == "stage3 step 4" and float(nets.threshold) == float(thr2)
+    rows2 = _metrics(os.path.join(full, "stage2", "metrics.jsonl"))
+    rows3 = _metrics(os.path.join(full, "stage3", "metrics.jsonl"))
+    for rows in (rows2, rows3):
+        for r in rows:
+            assert set(vags_stages.METRICS) <= set(r)
+            assert 0.0 <= r["view_share"] <= 1.0 and 0.0 <= r["success_rate"] <= 1.0
+            assert r["physics_errors"] == 0 and r["threshold"] == pytest.approx(float(thr2))
+            assert r["attempts"] + r["worlds_resetting"] == 2
+        viewed = sum(round(r["view_share"] * r["attempts"]) for r in rows)
+        assert rows[-1]["replay_size_vanet"] == viewed
+    assert all(r["replay_size_gdnet"] == 0 and r["loss_gdnet"] == 0 for r in rows2)
+    direct3 = sum(r["attempts"] - round(r["view_share"] * r["attempts"]) for r in rows3)
+    assert rows3[-1]["replay_size_gdnet"] == direct3
+    if any(r["updates"] for r in rows3):
+        assert not checkpoint.tree_equal(nets.gdnet["params"], gd2.params) or \
+            not checkpoint.tree_equal(nets.vanet["params"], va2.params)
+
+
+def test_eval_vags_sweep_csv_and_record(runs, tmp_path, capsys):
+    """eval.py on the pipeline's run: the vags policy by default, its CSV, a threshold sweep
+    whose extremes never / always move the camera, and --record pictures."""
+    full, _ = runs
+    out, rec = str(tmp_path / "vags.json"), str(tmp_path / "pictures")
+    assert eval_cli.main(["--run", full, "--groups", "1,2", "--rounds", "2", "--out", out,
+                          "--threshold-sweep", "-1000:-1000:1", "--quantile-sweep", "1:1:1", "--record", rec]) == 0
+    captured = capsys.readouterr()
+    assert "evaluating vags (" in captured.err and "stage3 step 4" in captured.err
+    with open(out) as f:
+        report = json.load(f)
+    assert report["policy"] == "vags" and report["networks"] == "stage3 step 4"
+    with open(str(tmp_path / "vags.csv")) as f:
+        assert len(f.read().strip().splitlines()) == 1 + 2 + 1  # header, 2 groups, overall
+    with open(str(tmp_path / "vags_sweep.json")) as f:
+        rows = json.load(f)["rows"]
+    never, always = rows
+    assert never["kind"] == "absolute" and never["overall"]["viewpoint_rate"] == 0.0
+    assert never["overall"]["motions"] == never["overall"]["attempts"]
+    assert always["kind"] == "quantile" and always["overall"]["viewpoint_rate"] == 1.0
+    assert always["overall"]["motions"] == 2 * always["overall"]["attempts"]
+    scores = [s for o in report["outcomes"].values() for row in o["scores"] for s in row if s == s]
+    assert always["threshold"] == pytest.approx(max(scores)) and len(scores) == report["overall"]["attempts"]
+    pngs = [f for _, _, fs in os.walk(rec) for f in fs if f.endswith(".png")]
+    rounds_json = [os.path.join(r, f) for r, _, fs in os.walk(rec) for f in fs if f.endswith(".json")]
+    assert len(rounds_json) == 2 and pngs
+    with open(rounds_json[0]) as f:
+        assert json.load(f)
 
 
 def test_metrics_are_sane(runs):
@@ -98,10 +207,16 @@ def test_resume_with_iterations_already_done_changes_nothing(runs, capsys):
     """A run at 4: asking for 2 is an error, asking for 4 (or a plain --resume) has nothing to
     do; neither trains nor rewrites config.json (which would stall later resumes)."""
     before = _files(runs[0])
-    assert train.main(["--out", runs[0], "--resume", "--quiet", "--set", "stage1.iterations=2"]) == 2
+    assert train.main(["--out", runs[0], "--resume", "--stage", "gdnet", "--quiet", "--set", "stage1.iterations=2"]) == 2
     assert "already at iteration 4: the requested stage1.iterations=2 are already done" in capsys.readouterr().err
-    assert train.main(["--out", runs[0], "--resume", "--quiet"]) == 0
+    assert train.main(["--out", runs[0], "--resume", "--stage", "gdnet", "--quiet"]) == 0
     assert "already at iteration 4 of 4: nothing to train (config.json unchanged)" in capsys.readouterr().err
+    # The whole pipeline is done too: --resume trains nothing and changes nothing.
+    assert train.main(["--out", runs[0], "--resume", "--quiet"]) == 0
+    assert json.loads(capsys.readouterr().out.strip().splitlines()[-1])["stages"] == []
+    # Stage 1 has been built on: its iterations can no longer change.
+    assert train.main(["--out", runs[0], "--resume", "--quiet", "--set", "stage1.iterations=6"]) == 2
+    assert "already started from the end of stage 1: GDNet" in capsys.readouterr().err
     assert _files(runs[0]) == before
 
 
@@ -121,7 +236,9 @@ def test_damaged_checkpoint_is_named_before_compiling(runs, tmp_path, capsys):
     step_dir = os.path.join(run, "checkpoints", "4")
     files = [os.path.join(r, f) for r, _, fs in os.walk(step_dir) for f in fs]
     _cut([max(files, key=os.path.getsize)])
-    train_argv = ["--out", run, "--resume", "--quiet", "--set", "stage1.iterations=6"]
+    shutil.rmtree(os.path.join(run, "stage2"))
+    shutil.rmtree(os.path.join(run, "stage3"))
+    train_argv = ["--out", run, "--resume", "--stage", "gdnet", "--quiet", "--set", "stage1.iterations=6"]
     eval_argv = ["--run", run, "--groups", "1-2", "--rounds", "2"]
     for main, argv in ((train.main, train_argv), (_cut_all_then(eval_cli.main, step_dir), eval_argv)):
         t = time.time()
@@ -156,7 +273,7 @@ def test_divergence_stops_and_keeps_the_last_good_checkpoint(runs, target, tmp_p
 
     monkeypatch.setattr(Stage1, "run", poisoned)
     out = str(tmp_path / "diverged")
-    code = train.main(["--config", "tiny", "--chunk", "2", "--checkpoint-every", "2", "--quiet",
+    code = train.main(["--config", "tiny", "--stage", "gdnet", "--chunk", "2", "--checkpoint-every", "2", "--quiet",
                        "--out", out, "--set"] + _overrides(6))
     err = capsys.readouterr().err
     assert code == 1

@@ -12,6 +12,7 @@ import pytest
 from vags_jax import camera
 from vags_jax import config as C
 from vags_jax.env import EnvState, VagsEnv, select_attempt
+from vags_jax.networks.ggcnn import init_ggcnn
 
 TALL, FLAT = 0, 1
 
@@ -20,7 +21,7 @@ TALL, FLAT = 0, 1
 def cfg():
     return C.replace(C.tiny(), **{
         "scene.shapes": ("cuboid_tall", "cube_half"), "scene.copies_per_shape": 1,
-        "scene.max_objects": 2, "stage1.max_objects": 2, "scene.placement": "scatter",
+        "scene.max_objects": 2, "stage1.max_objects": 2, "stage2.max_objects": 2, "stage3.max_objects": 2, "scene.placement": "scatter",
         "scene.colour_jitter": 0.0, "camera.noise.enabled": False,
     })
 
@@ -175,3 +176,46 @@ def test_decision_picks_each_branch_on_hand_set_q_maps():
     assert np.asarray(decide(jnp.asarray(qg), jnp.asarray(qv), -np.inf).direct).all()
     with pytest.raises(ValueError, match=r"VANet Q must be \(B, H, W\)"):
         decide(jnp.asarray(qg), jnp.asarray(qv[:, :-1]), 1.0)
+
+
+def test_decision_plans_one_or_two_motions(cfg, env):
+    """plan_attempt on a hand-made decision: the direct world grasps GDNet's pixel from the
+    global pose (1 motion); the other moves above VANet's pixel first (2 motions) and its
+    approach starts there."""
+    from vags_jax.decision import Decision, plan_attempt
+
+    xy = np.array([[0.08, -0.05], [-0.06, 0.07]], np.float32)
+    pos = np.zeros((2, 2, 3), np.float32)
+    pos[:, FLAT, :2], pos[:, FLAT, 2] = xy, 0.0125
+    state = _scene(env, pos, [[False, True], [False, True]])
+    pixel = camera.world_xy_to_pixel(jnp.asarray(xy), cfg.workspace)
+    grasp = jnp.concatenate([jnp.array([[3], [5]], jnp.int32), pixel], 1)
+    decision = Decision(direct=jnp.array([False, True]), grasp=grasp, view=pixel, q_max=jnp.array([1.0, 2.0]))
+    params = init_ggcnn(jax.random.PRNGKey(0), size=cfg.ggcnn.input_size)
+    attempt = plan_attempt(cfg, env, state, decision, params, jax.random.PRNGKey(1))
+    assert np.asarray(attempt.motions).tolist() == [2, 1]
+    view = np.asarray(env.viewpoint_pose(state, pixel))[:, :3, 3]
+    np.testing.assert_allclose(np.asarray(attempt.start[0]), view[0])
+    np.testing.assert_allclose(np.asarray(attempt.start[1]), cfg.camera.global_position)
+    direct_pos, direct_yaw = env.grasp_pose(state, grasp[:, 1:], grasp[:, 0])
+    np.testing.assert_allclose(np.asarray(attempt.position[1]), np.asarray(direct_pos[1]))
+    assert float(attempt.yaw[1]) == pytest.approx(float(direct_yaw[1]))
+    assert float(attempt.view_travel[0]) == pytest.approx(float(np.linalg.norm(view[0] - cfg.camera.global_position)))
+    assert float(attempt.view_travel[1]) == 0.0
+
+
+def test_view_reward_hand_cases():
+    """VANet's reward (eq. 5, reconstructed): 0 on failure whatever the Q values; 1 on success;
+    2 on success when GDNet's largest Q on the next view exceeds the one before the move."""
+    from vags_jax.vags_stages import calibrated_threshold, view_reward
+
+    success = jnp.array([False, False, True, True, True])
+    before = jnp.array([1.0, 1.0, 1.5, 1.5, 1.5])
+    after = jnp.array([0.5, 2.0, 1.2, 1.5, 1.9])
+    assert np.asarray(view_reward(success, before, after, C.Vags())).tolist() == [0.0, 0.0, 1.0, 1.0, 2.0]
+    no_bonus = C.Vags(view_bonus=0.0, success_reward=0.5)
+    assert np.asarray(view_reward(success, before, after, no_bonus)).tolist() == [0.0, 0.0, 0.5, 0.5, 0.5]
+    q = jnp.array([1.0, 2.0, 3.0, 4.0, 5.0])
+    assert float(calibrated_threshold(q, C.Vags())) == 3.0  # the median by default
+    assert float(calibrated_threshold(q, C.Vags(threshold_quantile=1.0))) == 5.0
+    assert float(calibrated_threshold(q, C.Vags(threshold=1.78))) == pytest.approx(1.78)

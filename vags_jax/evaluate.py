@@ -161,7 +161,7 @@ class RoundOutcomes:
     viewpoints: Any
     error: Any
     overflow: Any
-    scores: Any
+    scores: Any = None
 
     @property
     def cleared(self) -> np.ndarray:
@@ -178,7 +178,8 @@ class RoundOutcomes:
         return jax.tree.map(lambda *xs: np.concatenate([np.asarray(x) for x in xs]), *parts)
 
     def to_json(self) -> dict:
-        return {f.name: np.asarray(getattr(self, f.name)).tolist() for f in dataclasses.fields(self)}
+        return {f.name: np.asarray(getattr(self, f.name)).tolist() for f in dataclasses.fields(self)
+                if getattr(self, f.name) is not None}
 
 
 def _ratio(num: float, den: float) -> Optional[float]:
