@@ -433,6 +433,18 @@ def log_timing(out: str, name: str, start_it: int, it: int, wall_s: float, statu
                             "status": status, "time": time.strftime("%Y-%m-%dT%H:%M:%S")}) + "\n")
 
 
+def end_of_segment(args, name: str, start_it: int, it: int, t0: float, status: str) -> bool:
+    """Logs a stage segment's wall clock (timings.jsonl) and says how it ended; True when the
+    learning diverged (``status`` is then the message)."""
+    ok = status in ("done", "out_of_time")
+    log_timing(args.out, name, start_it, it, time.time() - t0, status if ok else "diverged")
+    if not ok:
+        print(f"{PROG}: error: {status}", file=sys.stderr)
+    elif status == "out_of_time":
+        print(f"stopped after {args.max_minutes} min at {name} iteration {it}; --resume continues", file=sys.stderr)
+    return not ok
+
+
 def main(argv=None) -> int:
     args = parse_args(argv)  # bad flags: one line, exit code 2
     from vags_jax import pipeline
@@ -507,13 +519,8 @@ def run_stage1(cfg, args, plan, deadline, env=None):
           f"impl={cfg.sim.impl}, trunk={cfg.net.trunk}, daes={cfg.exploration.daes}, "
           f"devices={jax.devices()}", file=sys.stderr)
     state, it, status, grasps, recent = run_chunks("stage1", stage, state, start_it, total, args.out, args, deadline)
-    log_timing(args.out, "stage1", start_it, it, time.time() - t0, "done" if status == "done" else
-               ("out_of_time" if status == "out_of_time" else "diverged"))
-    if status not in ("done", "out_of_time"):
-        print(f"{PROG}: error: {status}", file=sys.stderr)
+    if end_of_segment(args, "stage1", start_it, it, t0, status):
         return 1
-    if status == "out_of_time":
-        print(f"stopped after {args.max_minutes} min at stage 1 iteration {it}; --resume continues", file=sys.stderr)
     summary = {"stage": "stage1", "iterations": it, "grasp_attempts": grasps, "recent_success_rate": recent,
                "wall_s": round(time.time() - t0, 1), "out": args.out}
     if getattr(args, "print_summary", True):
@@ -629,13 +636,8 @@ def run_vags_stage(cfg, args, name: str, deadline, env=None):
     state, it, status, grasps, recent = run_chunks(
         name, stage, state, done, st.iterations, out_dir, args, deadline, vags_stages.FINITE_METRICS, "loss_vanet",
         on_save=lambda i, s: pipeline.save_networks(args.out, name, i, s))
-    log_timing(args.out, name, done, it, time.time() - t0, "done" if status == "done" else
-               ("out_of_time" if status == "out_of_time" else "diverged"))
-    if status not in ("done", "out_of_time"):
-        print(f"{PROG}: error: {status}", file=sys.stderr)
+    if end_of_segment(args, name, done, it, t0, status):
         return 1
-    if status == "out_of_time":
-        print(f"stopped after {args.max_minutes} min at {name} iteration {it}; --resume continues", file=sys.stderr)
     return {"stage": name, "iterations": it, "grasp_attempts": grasps, "recent_success_rate": recent,
             "threshold": float(state.threshold), "wall_s": round(time.time() - t0, 1), "out": out_dir}
 

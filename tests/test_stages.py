@@ -147,7 +147,7 @@ def test_eval_vags_sweep_csv_and_record(runs, tmp_path, capsys):
     full, _ = runs
     out, rec = str(tmp_path / "vags.json"), str(tmp_path / "pictures")
     assert eval_cli.main(["--run", full, "--groups", "1,2", "--rounds", "2", "--out", out,
-                          "--threshold-sweep", "-1000:-1000:1", "--quantile-sweep", "1:1:1", "--record", rec]) == 0
+                          "--threshold-sweep=-1000:-1000:1", "--quantile-sweep", "1:1:1", "--record", rec]) == 0
     captured = capsys.readouterr()
     assert "evaluating vags (" in captured.err and "stage3 step 4" in captured.err
     with open(out) as f:

@@ -22,7 +22,7 @@ import jax.numpy as jnp
 from flax import struct
 
 from vags_jax.config import Config
-from vags_jax.env import Attempt, EnvState, VagsEnv, select_attempt
+from vags_jax.env import EnvState, VagsEnv, select_attempt
 
 
 @struct.dataclass

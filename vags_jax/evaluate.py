@@ -589,11 +589,7 @@ class Evaluator:
         self.env.prepare(rounds)
         s0 = self._reset(k_reset, jnp.full((rounds,), n_objects, jnp.int32))  # errors: counted, not raised
         out = self.play(policy, k_loop, s0)
-        if out.error.any() or out.overflow.any():
-            warnings.warn(
-                f"evaluate: {int(out.error.sum())} of {rounds} rounds with {n_objects} objects ended in a physics "
-                f"error and {int(out.overflow.sum())} overflowed a contact buffer (see vags_jax.sim); they count "
-                f"as not cleared (raise Config.sim.naconmax / njmax for overflows)", RuntimeWarning, stacklevel=2)
+        _warn_failures(out, f"{rounds} rounds with {n_objects} objects")
         return out
 
     def run_groups(self, policy: Policy, seed: int, groups: Sequence[int], rounds: int) -> list[RoundOutcomes]:
@@ -601,24 +597,25 @@ class Evaluator:
         RoundOutcomes of numpy (rounds,) per group.  Group k's scenes are those of
         ``run_group(policy, fold_in(PRNGKey(seed), k), k, rounds)``."""
         groups = check_groups(groups, self.cfg, rounds)
+        s0, k_loop = self.reset_groups(seed, groups, rounds, rounds)
+        out = self.play(policy, k_loop, s0)
+        _warn_failures(out, f"{s0.n_worlds} rounds")
+        return [jax.tree.map(lambda x: x[i * rounds:(i + 1) * rounds], out) for i in range(len(groups))]
+
+    def reset_groups(self, seed: int, groups: Sequence[int], rounds: int, first: int):
+        """The first ``first`` of the ``rounds`` scenes of each group (``run_groups``'s scenes:
+        group k's per-round keys come from ``fold_in(PRNGKey(seed), k)``), in one batch ->
+        (EnvState of len(groups) * first worlds, the key of the rounds' play)."""
         base = jax.random.PRNGKey(seed)
         keys, counts = [], []
         for k in groups:
             k_reset, _ = jax.random.split(jax.random.fold_in(base, k))
             k_sim, _ = jax.random.split(k_reset)
-            keys.append(jax.random.split(k_sim, rounds))
-            counts.append(jnp.full((rounds,), k, jnp.int32))
-        B = rounds * len(groups)
-        self.env.prepare(B)
+            keys.append(jax.random.split(k_sim, rounds)[:first])
+            counts.append(jnp.full((first,), k, jnp.int32))
+        self.env.prepare(first * len(groups))
         k_obs, k_loop = jax.random.split(jax.random.fold_in(base, 1 << 20))
-        s0 = self._reset_worlds(jnp.concatenate(keys), jnp.concatenate(counts), k_obs)
-        out = self.play(policy, k_loop, s0)
-        if out.error.any() or out.overflow.any():
-            warnings.warn(
-                f"evaluate: {int(out.error.sum())} of {B} rounds ended in a physics error and "
-                f"{int(out.overflow.sum())} overflowed a contact buffer (see vags_jax.sim); they count as not "
-                f"cleared (raise Config.sim.naconmax / njmax for overflows)", RuntimeWarning, stacklevel=2)
-        return [jax.tree.map(lambda x: x[i * rounds:(i + 1) * rounds], out) for i in range(len(groups))]
+        return self._reset_worlds(jnp.concatenate(keys), jnp.concatenate(counts), k_obs), k_loop
 
     def play(self, policy: Policy, key, state: EnvState) -> RoundOutcomes:
         """Plays the rounds of ``state`` (B worlds with fresh counters: from ``VagsEnv.reset``, or
@@ -631,6 +628,14 @@ class Evaluator:
         if fn is None:
             fn = self._compiled[policy.plan] = jax.jit(lambda p, k, s: self._rounds_impl(policy.plan, p, k, s))
         return jax.tree.map(np.asarray, jax.device_get(fn(policy.params, key, state)))
+
+
+def _warn_failures(out: RoundOutcomes, what: str) -> None:
+    if out.error.any() or out.overflow.any():
+        warnings.warn(
+            f"evaluate: {int(out.error.sum())} of {what} ended in a physics error and {int(out.overflow.sum())} "
+            f"overflowed a contact buffer (see vags_jax.sim); they count as not cleared (raise "
+            f"Config.sim.naconmax / njmax for overflows)", RuntimeWarning, stacklevel=3)
 
 
 def evaluate(cfg: Config, policy: Policy, groups: Optional[Sequence[int]] = None,

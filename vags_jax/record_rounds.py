@@ -59,17 +59,8 @@ def record_rounds(cfg: Config, evaluator, params: dict, seed: int, groups: Seque
     from vags_jax.env import where_worlds
 
     env = evaluator.env
-    base = jax.random.PRNGKey(seed)
-    keys, counts = [], []
-    for k in groups:  # the scene keys of Evaluator.run_groups, first `rounds` rounds of each group
-        k_reset, _ = jax.random.split(jax.random.fold_in(base, k))
-        k_sim, _ = jax.random.split(k_reset)
-        keys.append(jax.random.split(k_sim, bench_rounds)[:rounds])
-        counts.append(jnp.full((rounds,), k, jnp.int32))
     B = rounds * len(groups)
-    env.prepare(B)
-    k_obs, k_loop = jax.random.split(jax.random.fold_in(base, 1 << 20))
-    state = evaluator._reset_worlds(jnp.concatenate(keys), jnp.concatenate(counts), k_obs)
+    state, k_loop = evaluator.reset_groups(seed, groups, bench_rounds, rounds)
     trace = _trace_fn(cfg, env)
     step = jax.jit(lambda s, a, k: env.step_attempt(s, a, k))
     extra = cfg.benchmark.max_attempts_extra
