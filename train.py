@@ -433,6 +433,30 @@ def log_timing(out: str, name: str, start_it: int, it: int, wall_s: float, statu
                             "status": status, "time": time.strftime("%Y-%m-%dT%H:%M:%S")}) + "\n")
 
 
+# Stages (and their environment) built in this process, by config: a second train.main() call
+# in one process (a test, a notebook) reuses their compiled programs instead of tracing and
+# compiling them again.  The iteration counts do not enter the programs, so they are not part
+# of the key.
+_BUILT: dict = {}
+
+
+def built(kind: str, cfg, make):
+    """The ``kind`` object ("env", "stage1", "stage2", "stage3") built for ``cfg``, made by
+    ``make()`` the first time."""
+    from vags_jax import config as C
+
+    key = (kind, C.replace(cfg, **{f"stage{n}.iterations": 1 for n in (1, 2, 3)}))
+    if key not in _BUILT:
+        _BUILT[key] = make()
+    return _BUILT[key]
+
+
+def _env(cfg):
+    from vags_jax.env import VagsEnv
+
+    return VagsEnv(cfg)
+
+
 def end_of_segment(args, name: str, start_it: int, it: int, t0: float, status: str) -> bool:
     """Logs a stage segment's wall clock (timings.jsonl) and says how it ended; True when the
     learning diverged (``status`` is then the message)."""
@@ -496,7 +520,7 @@ def run_stage1(cfg, args, plan, deadline, env=None):
 
     t0 = time.time()
     try:
-        stage = stages.make_stage1(cfg, env)  # e.g. an unknown shape name in scene.shapes
+        stage = built("stage1", cfg, lambda: stages.make_stage1(cfg, env or built("env", cfg, lambda: _env(cfg))))
     except ValueError as e:
         return cli.fail(PROG, e)
     state = stage.init(pipeline.stage_key(cfg, "stage1"))
@@ -614,7 +638,7 @@ def run_vags_stage(cfg, args, name: str, deadline, env=None):
     out_dir = pipeline.stage_dir(args.out, name)
     done = pipeline.progress(args.out, name)
     try:
-        stage = vags_stages.VagsStage(cfg, which, env)
+        stage = built(name, cfg, lambda: vags_stages.VagsStage(cfg, which, env or built("env", cfg, lambda: _env(cfg))))
         gg = pipeline.ggcnn_params(args.out, cfg, name)
         if done == 0 and which == 2:
             state = stage.init(pipeline.stage_key(cfg, name), pipeline.stage1_gdnet(args.out, cfg, name), gg)
@@ -685,7 +709,7 @@ def main_pipeline(args, only) -> int:
                 from vags_jax.env import VagsEnv
 
                 try:
-                    env = VagsEnv(cfg)
+                    env = built("env", cfg, lambda: VagsEnv(cfg))
                 except ValueError as e:
                     return cli.fail(PROG, e)
             if name == "stage1":

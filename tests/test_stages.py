@@ -143,11 +143,12 @@ def test_stage_hand_over(runs):
 
 def test_eval_vags_sweep_csv_and_record(runs, tmp_path, capsys):
     """eval.py on the pipeline's run: the vags policy by default, its CSV, a threshold sweep
-    whose extremes never / always move the camera, and --record pictures."""
+    whose extremes never / always move the camera, quantile thresholds taken from the scores
+    the main run recorded, and --record pictures."""
     full, _ = runs
     out, rec = str(tmp_path / "vags.json"), str(tmp_path / "pictures")
     assert eval_cli.main(["--run", full, "--groups", "1,2", "--rounds", "2", "--out", out,
-                          "--threshold-sweep=-1000:-1000:1", "--quantile-sweep", "1:1:1", "--record", rec]) == 0
+                          "--threshold-sweep=-1000:1000:2000", "--quantile-sweep", "0:1:1", "--record", rec]) == 0
     captured = capsys.readouterr()
     assert "evaluating vags (" in captured.err and "stage3 step 4" in captured.err
     with open(out) as f:
@@ -157,18 +158,21 @@ def test_eval_vags_sweep_csv_and_record(runs, tmp_path, capsys):
         assert len(f.read().strip().splitlines()) == 1 + 2 + 1  # header, 2 groups, overall
     with open(str(tmp_path / "vags_sweep.json")) as f:
         rows = json.load(f)["rows"]
-    never, always = rows
-    assert never["kind"] == "absolute" and never["overall"]["viewpoint_rate"] == 0.0
-    assert never["overall"]["motions"] == never["overall"]["attempts"]
-    assert always["kind"] == "quantile" and always["overall"]["viewpoint_rate"] == 1.0
+    never, always, q0, q1 = rows
+    assert (never["kind"], never["threshold"], always["threshold"]) == ("absolute", -1000, 1000)
+    assert never["overall"]["viewpoint_rate"] == 0.0 and never["overall"]["motions"] == never["overall"]["attempts"]
+    assert always["overall"]["viewpoint_rate"] == 1.0
     assert always["overall"]["motions"] == 2 * always["overall"]["attempts"]
     scores = [s for o in report["outcomes"].values() for row in o["scores"] for s in row if s == s]
-    assert always["threshold"] == pytest.approx(max(scores)) and len(scores) == report["overall"]["attempts"]
+    assert len(scores) == report["overall"]["attempts"]  # one decision value per attempt
+    assert (q0["kind"], q0["quantile"], q1["quantile"]) == ("quantile", 0, 1)
+    assert q0["threshold"] == pytest.approx(min(scores)) and q1["threshold"] == pytest.approx(max(scores))
     pngs = [f for _, _, fs in os.walk(rec) for f in fs if f.endswith(".png")]
     rounds_json = [os.path.join(r, f) for r, _, fs in os.walk(rec) for f in fs if f.endswith(".json")]
-    assert len(rounds_json) == 2 and pngs
+    assert len(rounds_json) == 2 and pngs  # the first round of each group
     with open(rounds_json[0]) as f:
-        assert json.load(f)
+        attempts = json.load(f)["attempts"]
+    assert attempts and all(a["direct"] in (True, False) and a["success"] in (True, False) for a in attempts)
 
 
 def test_metrics_are_sane(runs):
