@@ -651,7 +651,7 @@ def test_eval_flag_is_refused(argv, msg, capsys):
 
 def test_eval_rounds_that_cannot_fit(capsys):
     code, line = _cli(eval_cli.main, ["--config", "default", "--groups", "1", "--rounds", "1000000"], capsys)
-    assert code == 2 and "--rounds 1,000,000 worlds need Q maps of 16 x 224 x 224" in line
+    assert code == 2 and "--rounds 1,000,000 x 1 groups = 1,000,000 worlds (every group plays in one batch) need Q maps of 16 x 224 x 224" in line
 
 
 @pytest.mark.parametrize("kind,msg", [
