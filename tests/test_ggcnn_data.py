@@ -253,7 +253,7 @@ def test_load_ggcnn_errors(tmp_path):
     (["--stage", "nope"], "invalid choice: 'nope'"),
     (["--stage", "ggcnn", "--resume"], "drop --resume"),
     (["--stage", "ggcnn", "--max-minutes", "3"], "--max-minutes apply to --stage gdnet only"),
-    (["--data-dir", "x"], "--data-dir is for --stage ggcnn"),
+    (["--stage", "gdnet", "--data-dir", "x"], "--data-dir is for GG-CNN (--stage ggcnn, or the whole pipeline)"),
     (["--stage", "ggcnn", "--set", "ggcnn.crop_size=200"], "ggcnn.crop_size = 200 exceeds the camera image"),
     (["--stage", "ggcnn", "--set", "ggcnn_data.candidates=0"], "ggcnn_data.candidates must be in"),
 ])
