@@ -142,9 +142,11 @@ class VagsStage:
         self.ggcnn = GGCNN()
         self.update_gdnet = dqn.make_update_step(self._apply_gdnet, cfg.dqn, executed_rotation_only=True)
         self.update_vanet = dqn.make_update_step(self._apply_vanet, cfg.dqn)
-        # The state is donated: its buffers (two replays in stage 3, 16 GB with the gpu preset)
-        # are reused for the result instead of being held twice.
-        self._run_jit = jax.jit(self._run_impl, static_argnums=1, donate_argnums=0)
+        # On an accelerator the state is donated: its buffers (two replays in stage 3, 16 GB with
+        # the gpu preset) are reused for the result instead of being held twice.  Not on the CPU
+        # (tests, tiny runs), where memory is not the limit.
+        self.donates = jax.default_backend() != "cpu"
+        self._run_jit = jax.jit(self._run_impl, static_argnums=1, donate_argnums=0 if self.donates else ())
         self._greedy_jit = jax.jit(self._greedy)
 
     def _apply_gdnet(self, variables, color, height, train, mutable=False, rotations=None):
@@ -294,11 +296,9 @@ class VagsStage:
 
     # ------------------------------------------------------------------ public
 
-    donates = True  # ``run`` consumes its input state (its arrays are deleted)
-
     def run(self, state: VagsTrainState, n: int):
-        """Advance ``n`` iterations -> (state, metrics dict of (n,) float32 arrays).  The input
-        state is donated: do not use it afterwards."""
+        """Advance ``n`` iterations -> (state, metrics dict of (n,) float32 arrays).  On an
+        accelerator the input state is donated (``self.donates``): do not use it afterwards."""
         if not isinstance(n, int) or n < 1:
             raise ValueError(f"run: n must be a positive int, got {n!r}")
         self.env.prepare(state.env.n_worlds)
