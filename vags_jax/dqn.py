@@ -217,3 +217,27 @@ def make_update_step(apply_fn: Callable, cfg: DQN, executed_rotation_only: bool 
         return new_ts, metrics, td
 
     return update
+
+
+def learn_from_replay(update: Callable, learner: TrainState, buffer, key: jax.Array, cfg, n_updates: int,
+                      learning_starts: int):
+    """``n_updates`` updates of one network from its prioritized replay (``vags_jax.replay``),
+    none until the buffer holds ``learning_starts`` transitions; ``update`` from
+    ``make_update_step``, ``cfg`` the whole Config (its ``dqn`` and ``replay`` sections).
+    Returns (learner, buffer, (mean loss, mean |td|) (2,), updates done ())."""
+    from vags_jax import replay
+
+    ready = buffer.size >= max(learning_starts, 1)
+
+    def one(carry, k):
+        def do(args):
+            learner, buffer = args
+            idx, batch, w = replay.sample(buffer, k, cfg.dqn.batch_size, cfg.replay.alpha, cfg.replay.beta)
+            learner, m, td = update(learner, batch, w)
+            buffer = replay.update_priorities(buffer, idx, td, cfg.replay.priority_eps)
+            return (learner, buffer), jnp.stack([m["loss"], m["td_abs_mean"]])
+
+        return jax.lax.cond(ready, do, lambda a: (a, jnp.zeros((2,), jnp.float32)), carry)
+
+    (learner, buffer), stats = jax.lax.scan(one, (learner, buffer), jax.random.split(key, n_updates))
+    return learner, buffer, stats.mean(axis=0), jnp.where(ready, n_updates, 0)

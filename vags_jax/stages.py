@@ -101,28 +101,9 @@ class Stage1:
 
     def _learn(self, learner, buffer, key):
         """updates_per_iteration DQN updates (skipped until replay holds learning_starts)."""
-        cfg = self.cfg
-        ready = buffer.size >= max(cfg.stage1.learning_starts, 1)
-
-        def one(carry, k):
-            learner, buffer = carry
-
-            def do(args):
-                learner, buffer = args
-                idx, batch, w = replay.sample(buffer, k, cfg.dqn.batch_size, cfg.replay.alpha, cfg.replay.beta)
-                learner, m, td = self.update(learner, batch, w)
-                buffer = replay.update_priorities(buffer, idx, td, cfg.replay.priority_eps)
-                return (learner, buffer), jnp.stack([m["loss"], m["td_abs_mean"]])
-
-            def skip(args):
-                return args, jnp.zeros((2,), jnp.float32)
-
-            return jax.lax.cond(ready, do, skip, (learner, buffer))
-
-        keys = jax.random.split(key, cfg.stage1.updates_per_iteration)
-        (learner, buffer), stats = jax.lax.scan(one, (learner, buffer), keys)
-        n_updates = jnp.where(ready, cfg.stage1.updates_per_iteration, 0)
-        return learner, buffer, stats.mean(axis=0), n_updates
+        s = self.cfg.stage1
+        return dqn.learn_from_replay(self.update, learner, buffer, key, self.cfg, s.updates_per_iteration,
+                                     s.learning_starts)
 
     def _iteration(self, state: Stage1State, _):
         cfg, env = self.cfg, self.env

@@ -101,26 +101,6 @@ def calibrated_threshold(q_max: jax.Array, vcfg: Vags) -> jax.Array:
     return jnp.quantile(q_max.astype(jnp.float32), vcfg.threshold_quantile).astype(jnp.float32)
 
 
-def learn(update, learner: dqn.TrainState, buffer: replay.ReplayState, key: jax.Array, cfg: Config,
-          n_updates: int, learning_starts: int):
-    """``n_updates`` DQN updates of one network from its replay (none until it holds
-    ``learning_starts``) -> (learner, buffer, (mean loss, mean |td|), updates done)."""
-    ready = buffer.size >= max(learning_starts, 1)
-
-    def one(carry, k):
-        def do(args):
-            learner, buffer = args
-            idx, batch, w = replay.sample(buffer, k, cfg.dqn.batch_size, cfg.replay.alpha, cfg.replay.beta)
-            learner, m, td = update(learner, batch, w)
-            buffer = replay.update_priorities(buffer, idx, td, cfg.replay.priority_eps)
-            return (learner, buffer), jnp.stack([m["loss"], m["td_abs_mean"]])
-
-        return jax.lax.cond(ready, do, lambda a: (a, jnp.zeros((2,), jnp.float32)), carry)
-
-    (learner, buffer), stats = jax.lax.scan(one, (learner, buffer), jax.random.split(key, n_updates))
-    return learner, buffer, stats.mean(axis=0), jnp.where(ready, n_updates, 0)
-
-
 def _example_transition(H: int, action_dim: int):
     color, height = jnp.zeros((H, H, 3), jnp.uint8), jnp.zeros((H, H), jnp.float32)
     return replay.make_grasp_transition(color, height, jnp.zeros((action_dim,), jnp.int32), 0.0, color, height,
@@ -202,17 +182,16 @@ class VagsStage:
     def _learn(self, state: VagsTrainState, va_buffer, gd_buffer, key):
         cfg, st = self.cfg, self.stage
         if self.which == 2:
-            vanet, va_buffer, va_stats, n_va = learn(self.update_vanet, state.vanet, va_buffer, key, cfg,
-                                                     st.updates_per_iteration, st.learning_starts)
+            vanet, va_buffer, va_stats, n_va = dqn.learn_from_replay(
+                self.update_vanet, state.vanet, va_buffer, key, cfg, st.updates_per_iteration, st.learning_starts)
             return state.gdnet, vanet, gd_buffer, va_buffer, jnp.zeros((2,), jnp.float32), va_stats, n_va
 
-        # Stage 3: GDNet's updates, then VANet's (each network's replay is scanned alone: a
-        # scan carrying both 16k-transition replays needed 30 GiB more on the H100).
+        # Stage 3: GDNet's updates, then VANet's, each from its own replay.
         k_g, k_v = jax.random.split(key)
-        gdnet, gd_buffer, gd_stats, n_gd = learn(self.update_gdnet, state.gdnet, gd_buffer, k_g, cfg,
-                                                 st.updates_per_iteration, st.learning_starts)
-        vanet, va_buffer, va_stats, n_va = learn(self.update_vanet, state.vanet, va_buffer, k_v, cfg,
-                                                 st.updates_per_iteration, st.learning_starts)
+        gdnet, gd_buffer, gd_stats, n_gd = dqn.learn_from_replay(
+            self.update_gdnet, state.gdnet, gd_buffer, k_g, cfg, st.updates_per_iteration, st.learning_starts)
+        vanet, va_buffer, va_stats, n_va = dqn.learn_from_replay(
+            self.update_vanet, state.vanet, va_buffer, k_v, cfg, st.updates_per_iteration, st.learning_starts)
         return gdnet, vanet, gd_buffer, va_buffer, gd_stats, va_stats, n_gd + n_va
 
     def _iteration(self, state: VagsTrainState, _):
@@ -335,4 +314,4 @@ def stage3(cfg: Config, key: jax.Array, gdnet: dqn.TrainState, vanet: dqn.TrainS
 
 
 __all__ = ["VagsTrainState", "VagsStage", "METRICS", "FINITE_METRICS", "view_reward", "calibrated_threshold",
-           "learn", "stage2", "stage3"]
+           "stage2", "stage3"]
