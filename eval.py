@@ -226,7 +226,8 @@ def main(argv=None) -> int:
                 from vags_jax import pipeline
 
                 networks = pipeline.load_vags(args.run, step=args.step)
-                ggcnn_cfg = checkpoint.load_config(os.path.join(args.run, "ggcnn"))
+                if networks.ggcnn is not None:
+                    ggcnn_cfg = checkpoint.load_config(os.path.join(args.run, "ggcnn"))
             if policy in ("ggcnn", "ggcnn-close"):  # no GG-CNN in the run, damaged files
                 from vags_jax.ggcnn_stage import ggcnn_dir, load_ggcnn
 
@@ -278,6 +279,8 @@ def main(argv=None) -> int:
         variables, step = None, None
         if policy == "gdnet":  # the learner, checked against the run's network config
             _, variables, step = E.load_gdnet(args.run, args.step)
+        if policy == "vags":  # the config's gate / close-view planner against the run's networks
+            E.vags_params(networks, cfg)
         groups = E.check_groups(groups, cfg, rounds)
         time_model = E.MotionTimeModel.from_config(cfg)
         name = "vags-no-viewpoint" if args.no_viewpoint else policy

@@ -643,11 +643,11 @@ def run_vags_stage(cfg, args, name: str, deadline, env=None):
         if done == 0 and which == 2:
             state = stage.init(pipeline.stage_key(cfg, name), pipeline.stage1_gdnet(args.out, cfg, name), gg)
         elif done == 0:
-            gd, va, thr = pipeline.stage2_result(args.out, cfg, name)
-            state = stage.init(pipeline.stage_key(cfg, name), gd, gg, va, thr)
+            gd, va, su, thr = pipeline.stage2_result(args.out, cfg, name)
+            state = stage.init(pipeline.stage_key(cfg, name), gd, gg, va, thr, su)
         else:  # the state's structure from placeholders, then the checkpoint's arrays
             state = stage.init(pipeline.stage_key(cfg, name), pipeline.learner_target(cfg, "gdnet"), gg,
-                               pipeline.learner_target(cfg, "vanet"), 0.0)
+                               pipeline.learner_target(cfg, "vanet"), 0.0, pipeline.learner_target(cfg, "gdnet"))
             state, _ = checkpoint.restore(out_dir, state, done)
             print(f"resumed {out_dir} at iteration {done}", file=sys.stderr)
     except ValueError as e:  # CheckpointError: damaged or foreign checkpoint
@@ -659,7 +659,7 @@ def run_vags_stage(cfg, args, name: str, deadline, env=None):
           f"devices={jax.devices()}", file=sys.stderr)
     state, it, status, grasps, recent = run_chunks(
         name, stage, state, done, st.iterations, out_dir, args, deadline, vags_stages.FINITE_METRICS, "loss_vanet",
-        on_save=lambda i, s: pipeline.save_networks(args.out, name, i, s))
+        on_save=lambda i, s: pipeline.save_networks(args.out, name, i, s, cfg))
     if end_of_segment(args, name, done, it, t0, status):
         return 1
     return {"stage": name, "iterations": it, "grasp_attempts": grasps, "recent_success_rate": recent,

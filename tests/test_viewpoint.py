@@ -83,6 +83,25 @@ def test_close_view_sees_the_top_that_the_global_view_leaves_in_shadow(cfg, env)
     assert image.rgb.shape == (1, h, w, 3) and image.rgb.dtype == jnp.uint8
 
 
+def test_topdown_oracle_sees_the_shadowed_top(cfg, env):
+    """The ground-truth top-down maps (``vags_jax.topdown``) show both tops at their true
+    heights, the flat block's included, which the global view leaves in the tall one's shadow,
+    and the bare table at 0."""
+    from vags_jax.topdown import TopDown
+
+    state = _scene(env, [[[0.0, 0.0, 0.05], [0.0, 0.06, 0.0125]]], [[True, True]])
+    color, height = jax.jit(TopDown(env).maps)(state.sim)
+    h = np.asarray(height[0])
+    flat = _cells(cfg, -0.018, 0.018, 0.042, 0.078)
+    tall = _cells(cfg, -0.018, 0.018, -0.018, 0.018)
+    table = _cells(cfg, 0.1, 0.2, -0.2, -0.1)
+    assert flat[0].size >= 4 and tall[0].size >= 4
+    np.testing.assert_allclose(h[flat], 0.025, atol=1e-3)
+    np.testing.assert_allclose(h[tall], 0.10, atol=1e-3)
+    np.testing.assert_allclose(h[table], 0.0, atol=1e-4)
+    assert (np.asarray(color[0])[tall].max(axis=-1) > 0).all() and color.dtype == jnp.uint8
+
+
 def test_viewpoint_attempt_counts_two_motions_and_starts_its_approach_at_the_viewpoint(cfg, env):
     # Two worlds, each an isolated flat block; world 0 moves the camera first, world 1 grasps
     # from the global view; both in one jitted call.
@@ -178,21 +197,30 @@ def test_decision_picks_each_branch_on_hand_set_q_maps():
         decide(jnp.asarray(qg), jnp.asarray(qv[:, :-1]), 1.0)
 
 
-def test_decision_plans_one_or_two_motions(cfg, env):
+@pytest.mark.parametrize("planner", ["ggcnn", "gdnet"])
+def test_decision_plans_one_or_two_motions(cfg, env, planner):
     """plan_attempt on a hand-made decision: the direct world grasps GDNet's pixel from the
     global pose (1 motion); the other moves above VANet's pixel first (2 motions) and its
-    approach starts there."""
+    approach starts there.  With the "gdnet" close-view planner the grasp after the move is
+    GDNet's argmax among the cells the close view saw, at the fused map's height."""
     from vags_jax.decision import Decision, plan_attempt
 
+    pcfg = C.replace(cfg, **{"vags.local_planner": planner})
     xy = np.array([[0.08, -0.05], [-0.06, 0.07]], np.float32)
     pos = np.zeros((2, 2, 3), np.float32)
     pos[:, FLAT, :2], pos[:, FLAT, 2] = xy, 0.0125
     state = _scene(env, pos, [[False, True], [False, True]])
     pixel = camera.world_xy_to_pixel(jnp.asarray(xy), cfg.workspace)
     grasp = jnp.concatenate([jnp.array([[3], [5]], jnp.int32), pixel], 1)
-    decision = Decision(direct=jnp.array([False, True]), grasp=grasp, view=pixel, q_max=jnp.array([1.0, 2.0]))
+    decision = Decision(direct=jnp.array([False, True]), grasp=grasp, view=pixel, q_max=jnp.array([1.0, 2.0]),
+                        score=jnp.array([1.0, 2.0]))
     params = init_ggcnn(jax.random.PRNGKey(0), size=cfg.ggcnn.input_size)
-    attempt = plan_attempt(cfg, env, state, decision, params, jax.random.PRNGKey(1))
+    H = cfg.workspace.heightmap_px
+    # A GDNet stand-in whose Q grows toward the heightmap's corner (0, 0) at rotation 2: its
+    # argmax over the whole map is (2, 0, 0), outside the close view above the block.
+    ramp = (2 * H - jnp.arange(H)[:, None] - jnp.arange(H)[None, :]).astype(jnp.float32)
+    gdnet_q = lambda c, h: jnp.zeros((h.shape[0], cfg.net.n_rotations, H, H)).at[:, 2].set(ramp)  # noqa: E731
+    attempt, close = plan_attempt(pcfg, env, state, decision, jax.random.PRNGKey(1), gdnet_q, params)
     assert np.asarray(attempt.motions).tolist() == [2, 1]
     view = np.asarray(env.viewpoint_pose(state, pixel))[:, :3, 3]
     np.testing.assert_allclose(np.asarray(attempt.start[0]), view[0])
@@ -202,18 +230,58 @@ def test_decision_plans_one_or_two_motions(cfg, env):
     assert float(attempt.yaw[1]) == pytest.approx(float(direct_yaw[1]))
     assert float(attempt.view_travel[0]) == pytest.approx(float(np.linalg.norm(view[0] - cfg.camera.global_position)))
     assert float(attempt.view_travel[1]) == 0.0
+    if planner == "gdnet":
+        seen = np.asarray(close.seen[0])
+        rot, row, col = np.asarray(close.action[0]).tolist()
+        assert 0 < seen.sum() < H * H and seen[row, col] and rot == 2
+        # The corner-most seen cell: no seen cell has a larger ramp value.
+        rows, cols = np.nonzero(seen)
+        assert row + col == (rows + cols).min()
+        assert (row, col) != (0, 0)
+        surface = float(close.height[0, row, col])
+        assert float(attempt.position[0, 2]) == pytest.approx(
+            cfg.workspace.table_z + surface - cfg.grasp.depth_below_surface, abs=1e-6)
+        assert float(attempt.yaw[0]) == pytest.approx(2 * cfg.grasp.rotation_step)
+
+
+def test_success_gate_compares_estimates_on_hand_set_maps():
+    """The "success" gate: direct where the success net's estimate at GDNet's argmax minus
+    VANet's largest estimate exceeds -move_cost; the success net is read at GDNet's argmax,
+    not at its own."""
+    from vags_jax.decision import decide, gate_threshold
+
+    B, R, H, W = 3, 2, 4, 4
+    qg = np.zeros((B, R, H, W), np.float32)
+    qs = np.zeros((B, R, H, W), np.float32)
+    qv = np.zeros((B, H, W), np.float32)
+    for b in range(B):
+        qg[b, 1, 2, 3] = 2.0  # GDNet's argmax (1, 2, 3) in every world
+    qs[:, 1, 2, 3] = [0.9, 0.5, 0.6]  # p_direct
+    qs[1, 0, 0, 0] = 0.99  # the success net's own argmax elsewhere: not what is executed
+    qv[:, 1, 1] = [0.5, 0.8, 0.64]  # p_view
+    thr = gate_threshold(C.Vags(gate="success", move_cost=0.05), None)
+    d = decide(jnp.asarray(qg), jnp.asarray(qv), thr, jnp.asarray(qs), gate="success")
+    np.testing.assert_allclose(np.asarray(d.score), [0.4, -0.3, -0.04], atol=1e-6)
+    assert np.asarray(d.direct).tolist() == [True, False, True]  # world 2 gains 0.04 < 0.05: stays
+    assert float(thr) == pytest.approx(-0.05)
+    assert float(gate_threshold(C.Vags(gate="q"), 1.5)) == 1.5
+    with pytest.raises(ValueError, match="success net"):
+        decide(jnp.asarray(qg), jnp.asarray(qv), thr, None, gate="success")
 
 
 def test_view_reward_hand_cases():
-    """VANet's reward (eq. 5, reconstructed): 0 on failure whatever the Q values; 1 on success;
-    2 on success when GDNet's largest Q on the next view exceeds the one before the move."""
+    """VANet's reward.  "success": 1 when the grasp after the move succeeds, else 0.  "eq5"
+    (reconstructed): 0 on failure whatever the Q values; 1 on success; 2 on success when
+    GDNet's largest Q on the next view exceeds the one before the move."""
     from vags_jax.vags_stages import calibrated_threshold, view_reward
 
     success = jnp.array([False, False, True, True, True])
     before = jnp.array([1.0, 1.0, 1.5, 1.5, 1.5])
     after = jnp.array([0.5, 2.0, 1.2, 1.5, 1.9])
-    assert np.asarray(view_reward(success, before, after, C.Vags())).tolist() == [0.0, 0.0, 1.0, 1.0, 2.0]
-    no_bonus = C.Vags(view_bonus=0.0, success_reward=0.5)
+    assert np.asarray(view_reward(success, before, after, C.Vags())).tolist() == [0.0, 0.0, 1.0, 1.0, 1.0]
+    eq5 = C.Vags(view_reward="eq5")
+    assert np.asarray(view_reward(success, before, after, eq5)).tolist() == [0.0, 0.0, 1.0, 1.0, 2.0]
+    no_bonus = C.Vags(view_reward="eq5", view_bonus=0.0, success_reward=0.5)
     assert np.asarray(view_reward(success, before, after, no_bonus)).tolist() == [0.0, 0.0, 0.5, 0.5, 0.5]
     q = jnp.array([1.0, 2.0, 3.0, 4.0, 5.0])
     assert float(calibrated_threshold(q, C.Vags())) == 3.0  # the median by default

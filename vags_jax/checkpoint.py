@@ -402,6 +402,11 @@ def restore(run_dir: str, target: Any, step: Optional[int] = None) -> tuple[Any,
     return fit(run_dir, step, target, arrays), step
 
 
+def saved_parts(run_dir: str, step: int) -> list[str]:
+    """The top-level part names of checkpoint ``step`` (from its metadata only)."""
+    return sorted(_saved_tree(run_dir, step))
+
+
 def restore_part(run_dir: str, name: str, target: Any, step: Optional[int] = None) -> tuple[Any, int]:
     """Restores only the top-level part ``name`` (e.g. "learner") into ``target``'s structure.
     Errors as for ``restore``."""

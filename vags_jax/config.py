@@ -638,35 +638,58 @@ class Stage:
                f"overflow the int32 attempt counter; keep it below 2**31 (lower iterations)")
 
 
+VAGS_LOCAL_PLANNERS = ("gdnet", "ggcnn")
+VAGS_GATES = ("success", "q")
+VAGS_VIEW_REWARDS = ("success", "eq5")
+
+
 @dataclass(frozen=True)
 @checked
 class Vags:
-    """VAGS's decision and VANet's reward (stages 2 and 3; ``eval.py --policy vags``).
+    """VAGS's decision, its close-view grasp and VANet's reward (stages 2 and 3; ``eval.py
+    --policy vags``).  docs/method.md explains each choice; the paper's rules are the options
+    ``local_planner="ggcnn"``, ``gate="q"``, ``view_reward="eq5"``, ``vanet_gamma=0.5``.
 
-    The decision (paper Fig. 2): grasp directly where the largest GDNet Q of the global view
-    exceeds ``threshold``, else move the camera to VANet's best viewpoint and grasp with
-    GG-CNN there.  The paper's threshold, 1.78, is on its own Q scale; ours need not match,
-    so ``threshold = None`` (the default) calibrates it once, at the start of stage 2: the
-    ``threshold_quantile`` quantile of the frozen GDNet's largest Q over stage 2's first global
-    views (``stage2.n_worlds`` fresh scenes of ``stage2.min_objects..max_objects`` objects).
-    The value used is stored in the run (stage 2 and 3 checkpoints) and is ``eval.py``'s default.
-
-    VANet's reward (paper eq. 5, whose symbols the paper text lost; our reconstruction): 0 when
-    the grasp after the viewpoint move fails; on success ``success_reward``, plus
-    ``view_bonus`` when the largest GDNet Q of the next global view exceeds the largest GDNet Q
-    before the move (the move "created a better condition to grasp the next object directly").
+    local_planner: the grasp after a camera move.  "gdnet": the close depth image is projected
+      into the global heightmap (``view_fusion``) and GDNet's argmax among the cells the close
+      view saw is grasped; "ggcnn": GG-CNN's best grasp in the close image (the paper).
+    gate: when to move.  "success": move when VANet's estimate of the success after a move
+      exceeds the success net's estimate of GDNet's direct grasp by more than ``move_cost``
+      (both nets are trained with gamma 0 on 0/1 rewards, so both estimate a probability);
+      "q": move when GDNet's largest Q is at most the threshold (the paper's rule).
+    threshold / threshold_quantile: the "q" gate's threshold; None calibrates it (the quantile
+      of the frozen GDNet's largest Q over stage 2's first views), and again at stage 3's end
+      over its last views (GDNet changed).  Stage 2 always gates with "q" (VANet and the
+      success net are still learning).
+    move_cost: estimated success a move must add ("success" gate).
+    view_reward: VANet's reward.  "success": 1 when the grasp after the move succeeds, else 0;
+      "eq5": paper eq. 5 as reconstructed: ``success_reward`` on success plus ``view_bonus``
+      when GDNet's largest Q on the next global view exceeds the one before the move.
+    vanet_gamma: VANet's discount (0: its Q estimates the success of the grasp after the move).
     GDNet's reward (eq. 3) is ``success_reward`` on success, else 0.
     """
 
+    local_planner: str = "gdnet"
+    gate: str = "success"
     threshold: Optional[float] = None
     threshold_quantile: float = 0.5
+    move_cost: float = 0.05
+    view_reward: str = "success"
+    vanet_gamma: float = 0.0
     success_reward: float = 1.0
     view_bonus: float = 1.0
 
     def __post_init__(self):
+        _check(self.local_planner in VAGS_LOCAL_PLANNERS,
+               f"Vags.local_planner must be one of {VAGS_LOCAL_PLANNERS}, got {self.local_planner!r}")
+        _check(self.gate in VAGS_GATES, f"Vags.gate must be one of {VAGS_GATES}, got {self.gate!r}")
+        _check(self.view_reward in VAGS_VIEW_REWARDS,
+               f"Vags.view_reward must be one of {VAGS_VIEW_REWARDS}, got {self.view_reward!r}")
         if self.threshold is not None:
             _within("Vags.threshold", self.threshold, -1e6, 1e6)
         _within("Vags.threshold_quantile", self.threshold_quantile, 0.0, 1.0)
+        _within("Vags.move_cost", self.move_cost, -1.0, 1.0)
+        _within("Vags.vanet_gamma", self.vanet_gamma, 0.0, 1.0, hi_open=True)
         _within("Vags.success_reward", self.success_reward, 0.0, 1e3, lo_open=True)
         _within("Vags.view_bonus", self.view_bonus, 0.0, 1e3)
 

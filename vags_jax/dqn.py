@@ -163,20 +163,25 @@ def make_update_step(apply_fn: Callable, cfg: DQN, executed_rotation_only: bool 
         next_height = batch.next_height.astype(jnp.float32)
 
         target_vars = {"params": ts.target_params, "batch_stats": ts.target_batch_stats}
-        next_q_t = apply_fn(target_vars, next_color, next_height, False)
-        if cfg.double_q:
-            online_vars = {"params": ts.params, "batch_stats": ts.batch_stats}
-            next_q_o = apply_fn(online_vars, next_color, next_height, False)
-            y = double_q_td_target(batch.reward, batch.done, next_q_t, next_q_o, cfg.gamma)
+        r_all = None
+        if cfg.gamma == 0:  # y = r, a success estimate: no pass over the next state
+            y = jax.lax.stop_gradient(batch.reward.astype(jnp.float32))
         else:
-            y = td_target(batch.reward, batch.done, next_q_t, cfg.gamma)
-
+            next_q_t = apply_fn(target_vars, next_color, next_height, False)
+            r_all = next_q_t.shape[1] if next_q_t.ndim == 4 else None
+            if cfg.double_q:
+                online_vars = {"params": ts.params, "batch_stats": ts.batch_stats}
+                next_q_o = apply_fn(online_vars, next_color, next_height, False)
+                y = double_q_td_target(batch.reward, batch.done, next_q_t, next_q_o, cfg.gamma)
+            else:
+                y = td_target(batch.reward, batch.done, next_q_t, cfg.gamma)
         sub_rot = executed_rotation_only and batch.action.shape[-1] == 3
+        if sub_rot and cfg.symmetric_grasp_label and r_all is None:
+            raise ValueError("symmetric grasp labels need gamma > 0 (the rotation count comes from the target pass)")
 
         def loss_fn(params):
             online = {"params": params, "batch_stats": ts.batch_stats}
             if sub_rot:
-                r_all = next_q_t.shape[1]
                 rot = batch.action[:, :1]
                 rots = jnp.concatenate([rot, (rot + r_all // 2) % r_all], 1) if cfg.symmetric_grasp_label else rot
                 q, new_vars = apply_fn(online, color, height, True, mutable=["batch_stats"], rotations=rots)

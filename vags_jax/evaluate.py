@@ -26,10 +26,10 @@ an action ``(B, 3) int32 [rotation, row, col]`` on the global heightmaps (1 moti
   grasp depth (height > surface - ``depth_below_surface``, and an object cell); choose the axis
   with the narrowest run that fits in ``finger_stroke`` (the narrowest one if none fits), and
   move the grasp centre to the middle of that run.
-* ``vags``: the method (``vags_plan``, paper Fig. 2): GDNet's largest Q on the global view
-  above the threshold -> grasp directly at its argmax (1 motion); else move the camera to
-  VANet's argmax viewpoint and grasp at GG-CNN's best grasp in the close image (2 motions).
-  ``params`` = ``{"gdnet", "vanet", "ggcnn", "threshold"}`` (``pipeline.load_vags``); the
+* ``vags``: the method (``vags_plan``, ``vags_jax.decision``): where the gate's score is above
+  the threshold, grasp directly at GDNet's argmax (1 motion); else move the camera to VANet's
+  argmax viewpoint and grasp with the close-view planner (2 motions).  ``params`` =
+  ``{"gdnet", "vanet", "success", "ggcnn", "threshold"}`` (``pipeline.load_vags``); the
   threshold is an argument of the compiled loop, so a threshold sweep compiles once.  A
   threshold of -inf is the VANet ablation (GDNet alone, ``eval.py --no-viewpoint``).
 * ``ggcnn``: GG-CNN on the raw depth image of the global camera, 1 motion (the paper's GG-CNN
@@ -276,31 +276,38 @@ def ggcnn_plan(cfg: Config, close: bool) -> Callable:
 
 
 def vags_plan(cfg: Config) -> Callable:
-    """VAGS's planner (``decision.decide`` + ``decision.plan_attempt``): params = {"gdnet",
-    "vanet"} ({"params", "batch_stats"} each), "ggcnn" ({"params"}), "threshold" (() float32).
-    The attempt's ``score`` is GDNet's largest Q."""
-    from vags_jax.decision import decide, plan_attempt
-    from vags_jax.networks import make_qnet
-    from vags_jax.networks.ggcnn import GGCNN
+    """VAGS's planner (``decision.VagsNets``: the gate, then a direct grasp or the close-view
+    planner's): params = ``vags_params(...)``.  The attempt's ``score`` is the gate's score."""
+    from vags_jax.decision import VagsNets
 
-    gdnet, vanet, model = make_qnet(cfg.net, "gdnet"), make_qnet(cfg.net, "vanet"), GGCNN()
+    nets = VagsNets(cfg)
 
     def plan(params, key, env: VagsEnv, state: EnvState) -> Attempt:
-        q_grasp = gdnet.apply(params["gdnet"], state.color, state.height, False)  # (B, R, H, W)
-        q_view = vanet.apply(params["vanet"], state.color, state.height, False)  # (B, H, W)
-        decision = decide(q_grasp, q_view, params["threshold"])
-        attempt = plan_attempt(cfg, env, state, decision, params["ggcnn"], key, model)
-        return attempt.replace(score=decision.q_max)
+        return nets.plan(params, key, env, state)[0]
 
     return plan
 
 
-def vags_params(networks, threshold=None) -> dict:
-    """The ``vags`` policy's params from ``pipeline.VagsNetworks`` (threshold: override, e.g.
-    ``-inf`` for the VANet ablation)."""
-    thr = networks.threshold if threshold is None else threshold
-    return {"gdnet": networks.gdnet, "vanet": networks.vanet, "ggcnn": networks.ggcnn,
-            "threshold": jnp.asarray(thr, jnp.float32)}
+def vags_params(networks, cfg: Config, threshold=None) -> dict:
+    """The ``vags`` policy's params from ``pipeline.VagsNetworks``: the gate's threshold is the
+    run's ("q" gate) or ``-vags.move_cost`` ("success" gate), unless ``threshold`` overrides it
+    (e.g. ``-inf`` for the VANet ablation).  ValueError when the config's gate or close-view
+    planner needs a network the run lacks."""
+    from vags_jax.decision import gate_threshold
+
+    if cfg.vags.gate == "success" and networks.success is None:
+        raise ValueError(f"the run's networks ({networks.source}) have no success net (trained before the "
+                         f"'success' gate): evaluate with --set vags.gate=q, or train the run again")
+    if cfg.vags.local_planner == "ggcnn" and networks.ggcnn is None:
+        raise ValueError("vags.local_planner=ggcnn needs a GG-CNN in the run (RUN/ggcnn): train one with "
+                         "python train.py --stage ggcnn --out RUN")
+    thr = gate_threshold(cfg.vags, networks.q_threshold) if threshold is None else threshold
+    params = {"gdnet": networks.gdnet, "vanet": networks.vanet, "threshold": jnp.asarray(thr, jnp.float32)}
+    if networks.ggcnn is not None:
+        params["ggcnn"] = networks.ggcnn
+    if networks.success is not None:
+        params["success"] = networks.success
+    return params
 
 
 def _object_mask(height: jax.Array, threshold: float) -> jax.Array:
@@ -435,7 +442,7 @@ def make_policy(name: str, cfg: Config, gdnet_variables: Any = None, ggcnn_param
         if vags_networks is None:
             raise ValueError("policy 'vags' needs the trained networks of a run (eval.py --run RUN after "
                              "train.py's stage 2 or 3), or pass vags_networks")
-        return Policy("vags", vags_plan(cfg), vags_params(vags_networks, threshold))
+        return Policy("vags", vags_plan(cfg), vags_params(vags_networks, cfg, threshold))
     if name == "gdnet":
         if gdnet_variables is None:
             raise ValueError("policy 'gdnet' needs trained GDNet variables: evaluate a run "

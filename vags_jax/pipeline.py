@@ -114,25 +114,29 @@ def ggcnn_params(run_dir: str, cfg: Config, for_what: str = "stage 2"):
 
 
 def stage2_result(run_dir: str, cfg: Config, for_what: str = "stage 3"):
-    """Stage 2's final (GDNet learner, VANet learner, threshold () float32)."""
+    """Stage 2's final (GDNet learner, VANet learner, success-net learner, threshold () float32)."""
     step = _need(run_dir, cfg, "stage2", for_what)
     d = stage_dir(run_dir, "stage2")
     gd, _ = checkpoint.restore_part(d, "gdnet", learner_target(cfg, "gdnet"), step)
     va, _ = checkpoint.restore_part(d, "vanet", learner_target(cfg, "vanet"), step)
+    su, _ = checkpoint.restore_part(d, "success", learner_target(cfg, "gdnet"), step)
     thr, _ = checkpoint.restore_part(d, "threshold", np.zeros((), np.float32), step)
-    return gd, va, jnp.asarray(thr, jnp.float32)
+    return gd, va, su, jnp.asarray(thr, jnp.float32)
 
 
 @struct.dataclass
 class VagsNetworks:
-    """Everything ``eval.py --policy vags`` needs: GDNet and VANet variables ({"params",
-    "batch_stats"}), GG-CNN's {"params"}, the decision threshold () float32, and where they
-    came from (``source``: "stage3 step N" or "stage2 step N", static)."""
+    """Everything ``eval.py --policy vags`` needs: GDNet, VANet and success-net variables
+    ({"params", "batch_stats"}; success None in runs from before the success net), GG-CNN's
+    {"params"}, the "q" gate's threshold () float32 (``q_threshold``; ``evaluate.vags_params``
+    turns it into the configured gate's threshold), and where they came from (``source``:
+    "stage3 step N" or "stage2 step N", static)."""
 
     gdnet: Any
     vanet: Any
     ggcnn: Any
-    threshold: jax.Array
+    q_threshold: jax.Array
+    success: Any = None
     source: str = struct.field(pytree_node=False, default="")
 
 
@@ -142,13 +146,17 @@ def networks_dir(run_dir: str, name: str) -> str:
     return os.path.join(stage_dir(run_dir, name), "networks")
 
 
-def save_networks(run_dir: str, name: str, step: int, state) -> str:
-    """Writes the GDNet and VANet variables and the threshold of a ``VagsTrainState`` at
-    ``step`` to ``networks_dir`` -> that directory."""
+def save_networks(run_dir: str, name: str, step: int, state, cfg: Config) -> str:
+    """Writes the GDNet, VANet and success-net variables and the "q" gate's threshold of a
+    ``VagsTrainState`` at ``step`` to ``networks_dir`` -> that directory.  After stage 3 the
+    threshold is re-set on its last views (``vags_stages.final_threshold``): GDNet changed."""
+    from vags_jax.vags_stages import final_threshold
+
     as_vars = lambda ts: {"params": ts.params, "batch_stats": ts.batch_stats}  # noqa: E731
+    thr = final_threshold(state, cfg.vags) if name == "stage3" else state.threshold
     d = networks_dir(run_dir, name)
     checkpoint.save(d, step, {"gdnet": as_vars(state.gdnet), "vanet": as_vars(state.vanet),
-                              "threshold": state.threshold})
+                              "success": as_vars(state.success), "threshold": thr})
     return d
 
 
@@ -160,7 +168,8 @@ def _vars_target(cfg: Config, kind: str) -> dict:
 def load_vags(run_dir: str, cfg: Optional[Config] = None, step: Optional[int] = None) -> VagsNetworks:
     """The latest VAGS networks of a run: stage 3's (checkpoint ``step``, default its latest)
     when stage 3 saved any, else stage 2's; read from the stage's ``networks/`` directory, and
-    GG-CNN from RUN/ggcnn.  CheckpointError (one line, what to run) when there are none."""
+    GG-CNN from RUN/ggcnn (None when the run has none).  CheckpointError (one line, what to
+    run) when there are none."""
     from vags_jax import ggcnn_stage
 
     cfg = checkpoint.load_config(run_dir) if cfg is None else cfg
@@ -174,8 +183,13 @@ def load_vags(run_dir: str, cfg: Optional[Config] = None, step: Optional[int] = 
     gd, s = checkpoint.restore_part(d, "gdnet", _vars_target(cfg, "gdnet"), step)
     va, _ = checkpoint.restore_part(d, "vanet", _vars_target(cfg, "vanet"), s)
     thr, _ = checkpoint.restore_part(d, "threshold", np.zeros((), np.float32), s)
-    gg, _ = ggcnn_stage.load_ggcnn(run_dir)
-    return VagsNetworks(gdnet=gd, vanet=va, ggcnn=gg, threshold=jnp.asarray(thr, jnp.float32),
+    su = None
+    if "success" in checkpoint.saved_parts(d, s):
+        su, _ = checkpoint.restore_part(d, "success", _vars_target(cfg, "gdnet"), s)
+    gg = None
+    if os.path.isdir(ggcnn_stage.ggcnn_dir(run_dir)):
+        gg, _ = ggcnn_stage.load_ggcnn(run_dir)
+    return VagsNetworks(gdnet=gd, vanet=va, ggcnn=gg, q_threshold=jnp.asarray(thr, jnp.float32), success=su,
                         source=f"{found[0]} step {s}")
 
 

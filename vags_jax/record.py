@@ -45,7 +45,8 @@ class AttemptRecord:
     round_index, attempt_index: ints >= 0; n_objects: objects on the table at the round's start.
     color: (H, W, 3) uint8 global colour heightmap; height: (H, W) float32 metres.
     q_grasp: (H, W) float32 GDNet Q, max over rotations; grasp: (3,) int [rotation, row, col],
-      GDNet's argmax; q_max: its Q; threshold: the Q threshold of the direct-grasp decision.
+      GDNet's argmax; q_max: the gate's score (GDNet's largest Q for the "q" gate); threshold: the
+      score above which VAGS grasps directly.
     direct: True when GDNet's grasp was executed directly (1 motion).
     success: the grasp's outcome; grasp_world: (3,) float32 executed grasp position (m);
       yaw: its closing-axis yaw (rad).

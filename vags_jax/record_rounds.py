@@ -20,30 +20,27 @@ import numpy as np
 
 from vags_jax import camera
 from vags_jax.config import Config
-from vags_jax.decision import decide, plan_attempt
+from vags_jax.decision import VagsNets
 from vags_jax.ggcnn_grasp import network_input
 from vags_jax.ggcnn_process import postprocess
-from vags_jax.networks import make_qnet
-from vags_jax.networks.ggcnn import GGCNN
 from vags_jax.record import AttemptRecord, write_round
 
 
 def _trace_fn(cfg: Config, env):
-    gdnet, vanet, model = make_qnet(cfg.net, "gdnet"), make_qnet(cfg.net, "vanet"), GGCNN()
+    nets = VagsNets(cfg)
+    model = nets.ggcnn
 
     def trace(params, key, state):
-        q_grasp = gdnet.apply(params["gdnet"], state.color, state.height, False)
-        q_view = vanet.apply(params["vanet"], state.color, state.height, False)
-        decision = decide(q_grasp, q_view, params["threshold"])
-        attempt, extra = plan_attempt(cfg, env, state, decision, params["ggcnn"], key, model, details=True)
-        x, _, _ = network_input(extra["image"].depth, cfg.camera, cfg.ggcnn)
-        quality, angle, width = postprocess(model.apply(params["ggcnn"], x), cfg.ggcnn)
+        attempt, decision, close, q_grasp, q_view = nets.plan(params, key, env, state)
         cell = camera.world_xy_to_pixel(attempt.position[:, :2], cfg.workspace)
         info = {"q_grasp": q_grasp.max(axis=1), "grasp": decision.grasp, "q_max": decision.q_max,
-                "q_view": q_view, "view": decision.view, "direct": decision.direct,
-                "local_depth": extra["image"].depth, "quality": quality, "angle": angle, "width": width,
-                "pixel": extra["image_grasp"].pixel, "angle_peak": extra["image_grasp"].angle,
-                "color": state.color, "height": state.height, "cell": cell}
+                "score": decision.score, "q_view": q_view, "view": decision.view, "direct": decision.direct,
+                "local_depth": close.image.depth, "color": state.color, "height": state.height, "cell": cell}
+        if close.image_grasp is not None:  # the "ggcnn" close-view planner: its maps and peak
+            x, _, _ = network_input(close.image.depth, cfg.camera, cfg.ggcnn)
+            quality, angle, width = postprocess(model.apply(params["ggcnn"], x), cfg.ggcnn)
+            info.update(quality=quality, angle=angle, width=width, pixel=close.image_grasp.pixel,
+                        angle_peak=close.image_grasp.angle)
         return attempt, info
 
     return jax.jit(trace)
@@ -76,18 +73,19 @@ def record_rounds(cfg: Config, evaluator, params: dict, seed: int, groups: Seque
         pos, yaw = np.asarray(attempt.position), np.asarray(attempt.yaw)
         for i in np.flatnonzero(~done):
             direct = bool(info["direct"][i])
+            gg = not direct and "quality" in info
             records[i].append(AttemptRecord(
                 round_index=i % rounds, attempt_index=t, n_objects=int(groups[i // rounds]),
                 color=info["color"][i], height=info["height"][i], q_grasp=info["q_grasp"][i],
-                grasp=info["grasp"][i], q_max=float(info["q_max"][i]), threshold=float(params["threshold"]),
+                grasp=info["grasp"][i], q_max=float(info["score"][i]), threshold=float(params["threshold"]),
                 direct=direct, success=bool(success[i]), grasp_world=pos[i], yaw=float(yaw[i]),
                 q_view=info["q_view"][i], view=info["view"][i],
                 local_depth=None if direct else info["local_depth"][i],
-                ggcnn_quality=None if direct else info["quality"][i],
-                ggcnn_angle=None if direct else info["angle"][i],
-                ggcnn_width=None if direct else info["width"][i],
-                ggcnn_pixel=None if direct else info["pixel"][i],
-                ggcnn_angle_peak=None if direct else float(info["angle_peak"][i]),
+                ggcnn_quality=info["quality"][i] if gg else None,
+                ggcnn_angle=info["angle"][i] if gg else None,
+                ggcnn_width=info["width"][i] if gg else None,
+                ggcnn_pixel=info["pixel"][i] if gg else None,
+                ggcnn_angle_peak=float(info["angle_peak"][i]) if gg else None,
                 n_rotations=cfg.net.n_rotations,
                 grasp_cell=np.clip(info["cell"][i], 0, cfg.workspace.heightmap_px - 1).astype(np.float32)))
         done = done | np.asarray(env.round_over(state, extra) | state.sim.error)

@@ -1,0 +1,208 @@
+#!/usr/bin/env python3
+"""Do viewpoints pay?  Every grasp planner of VAGS executed from the SAME states.
+
+    python bench/viewpoint_states.py --run runs/vags --objects 6-10 --worlds 512 --steps 8 \
+        --out bench/results/viewpoints/default/states_6-10.json
+
+States: ``--worlds`` fresh piles of ``--objects`` objects, then every state of their rounds
+for ``--steps`` attempts while GDNet grasps directly (greedy, from the global view).  From
+each state the physics is branched (the simulator is pure: each branch starts from the same
+``SimState``) and these grasps are executed, each in its own copy:
+
+* ``direct``: GDNet's argmax on the global view (what VAGS does when it does not move);
+* ``oracle``: GDNet's argmax on the ground-truth top-down maps (``vags_jax.topdown``): the
+  most any viewpoint policy could show GDNet;
+* ``view_gdnet``: the camera moves to VANet's argmax viewpoint, GDNet grasps on the global
+  maps fused with the close view (``vags.local_planner="gdnet"``);
+* ``view_ggcnn``: the same move, GG-CNN grasps in the close image (the paper's planner; only
+  with a GG-CNN in the run);
+* ``random_gdnet``: as ``view_gdnet`` but the viewpoint is a uniformly random object cell
+  (is VANet's choice better than chance?).
+
+Reported per subset of states (all; where each gate -- ``success`` and ``q`` -- would grasp
+directly / move the camera): the success rate of each branch, and the AUROC with which each
+gate score (the success net's p_direct, GDNet's largest Q) ranks the direct grasp's success,
+and VANet's p_view the success after its move.  Prints a Markdown table; ``--out`` JSON.
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import os
+import sys
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+BRANCHES = ("direct", "oracle", "view_gdnet", "view_ggcnn", "random_gdnet")
+
+
+def auroc(score, label):
+    """Area under the ROC curve of ``score`` (N,) for binary ``label`` (N,) (ties count half);
+    None when one class is empty."""
+    import numpy as np
+
+    score, label = np.asarray(score, np.float64), np.asarray(label, bool)
+    pos, neg = score[label], score[~label]
+    if pos.size == 0 or neg.size == 0:
+        return None
+    order = np.argsort(np.concatenate([pos, neg]), kind="mergesort")
+    ranks = np.empty(order.size)
+    allv = np.concatenate([pos, neg])[order]
+    # Average ranks over ties.
+    i = 0
+    while i < allv.size:
+        j = i
+        while j + 1 < allv.size and allv[j + 1] == allv[i]:
+            j += 1
+        ranks[order[i:j + 1]] = 0.5 * (i + j) + 1
+        i = j + 1
+    return float((ranks[:pos.size].sum() - pos.size * (pos.size + 1) / 2) / (pos.size * neg.size))
+
+
+def make_step(cfg, env, has_ggcnn: bool):
+    """-> jitted ``(params, key, state) -> (next state, per-world dict)``."""
+    import jax
+    import jax.numpy as jnp
+
+    from vags_jax import exploration
+    from vags_jax.config import replace
+    from vags_jax.decision import VagsNets, close_view_grasp, decide, gate_threshold, greedy
+    from vags_jax.topdown import TopDown
+
+    nets, oracle = VagsNets(cfg), TopDown(env)
+    cfg_gd = replace(cfg, **{"vags.local_planner": "gdnet"})
+    cfg_gg = replace(cfg, **{"vags.local_planner": "ggcnn"})
+    noisy = cfg.camera.noise.enabled
+
+    def step(params, key, state):
+        k_gd, k_gg, k_rand, k_rv, k_obs = jax.random.split(key, 5)
+        gdnet_q = nets.gdnet_q(params["gdnet"])
+        q_grasp = gdnet_q(state.color, state.height)
+        q_view = nets.vanet.apply(params["vanet"], state.color, state.height, False)
+        q_success = nets.gdnet.apply(params["success"], state.color, state.height, False)
+        d_s = decide(q_grasp, q_view, gate_threshold(dataclasses.replace(cfg.vags, gate="success"), None),
+                     q_success, "success")
+        d_q = decide(q_grasp, q_view, params["q_threshold"])
+        pos, yaw = env.grasp_pose(state, d_q.grasp[:, 1:], d_q.grasp[:, 0])
+        attempts = {"direct": env.direct_attempt(pos, yaw)}
+        color_gt, height_gt = oracle.maps(state.sim)
+        a_gt, _ = greedy(gdnet_q(color_gt, height_gt))
+        pos, yaw = env.grasp_pose(state.replace(height=height_gt), a_gt[:, 1:], a_gt[:, 0])
+        attempts["oracle"] = env.direct_attempt(pos, yaw)
+        attempts["view_gdnet"], _ = close_view_grasp(cfg_gd, env, state, d_q.view, k_gd, gdnet_q)
+        if has_ggcnn:
+            attempts["view_ggcnn"], _ = close_view_grasp(cfg_gg, env, state, d_q.view, k_gg, None, params["ggcnn"],
+                                                         nets.ggcnn)
+        cell = jax.vmap(lambda k, h: exploration._random_pixel(k, h, cfg.exploration))(
+            jax.random.split(k_rand, state.n_worlds), state.height)
+        rand_view = jnp.stack(jnp.unravel_index(cell, state.height.shape[1:]), -1).astype(jnp.int32)
+        attempts["random_gdnet"], _ = close_view_grasp(cfg_gd, env, state, rand_view, k_rv, gdnet_q)
+        out = {name: env.step_attempt(state, a, observe=False)[1].success for name, a in attempts.items()}
+        out.update(q_max=d_q.q_max, p_direct=d_s.score + jnp.max(q_view.reshape(q_view.shape[0], -1), axis=1),
+                   p_view=jnp.max(q_view.reshape(q_view.shape[0], -1), axis=1),
+                   direct_success_gate=d_s.direct, direct_q_gate=d_q.direct,
+                   objects=env.n_remaining(state), live=(env.n_remaining(state) > 0) & ~state.sim.error)
+        nxt, _ = env.step_attempt(state, attempts["direct"], k_obs if noisy else None)
+        return nxt, out
+
+    return jax.jit(step)
+
+
+def summarize(rows: dict, has_ggcnn: bool) -> dict:
+    import numpy as np
+
+    live = rows["live"]
+    subsets = {"all": live,
+               "success gate: direct": live & rows["direct_success_gate"],
+               "success gate: move": live & ~rows["direct_success_gate"],
+               "q gate: direct": live & rows["direct_q_gate"],
+               "q gate: move": live & ~rows["direct_q_gate"]}
+    out = {}
+    for name, m in subsets.items():
+        entry = {"states": int(m.sum())}
+        for b in BRANCHES:
+            if b == "view_ggcnn" and not has_ggcnn:
+                continue
+            entry[b] = float(rows[b][m].mean()) if m.any() else None
+        entry["auroc_p_direct"] = auroc(rows["p_direct"][m], rows["direct"][m])
+        entry["auroc_q_max"] = auroc(rows["q_max"][m], rows["direct"][m])
+        entry["auroc_p_view"] = auroc(rows["p_view"][m], rows["view_gdnet"][m])
+        entry["mean_p_direct"] = float(np.mean(rows["p_direct"][m])) if m.any() else None
+        entry["mean_p_view"] = float(np.mean(rows["p_view"][m])) if m.any() else None
+        out[name] = entry
+    return out
+
+
+def table(summary: dict, has_ggcnn: bool) -> str:
+    cols = [b for b in BRANCHES if has_ggcnn or b != "view_ggcnn"]
+    pct = lambda v: "-" if v is None else f"{100 * v:.1f}"  # noqa: E731
+    num = lambda v: "-" if v is None else f"{v:.3f}"  # noqa: E731
+    lines = ["| states | n | " + " | ".join(cols) + " | AUROC p_direct | AUROC Q | AUROC p_view | mean p_direct | mean p_view |",
+             "|---|---:|" + "---:|" * (len(cols) + 5)]
+    for name, e in summary.items():
+        lines.append(f"| {name} | {e['states']} | " + " | ".join(pct(e[c]) for c in cols) +
+                     f" | {num(e['auroc_p_direct'])} | {num(e['auroc_q_max'])} | {num(e['auroc_p_view'])} | "
+                     f"{num(e['mean_p_direct'])} | {num(e['mean_p_view'])} |")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--run", required=True, help="train.py run directory with stage 2 or 3 networks")
+    p.add_argument("--objects", default="6-10", help="MIN-MAX objects per pile (default 6-10)")
+    p.add_argument("--worlds", type=int, default=256)
+    p.add_argument("--steps", type=int, default=8, help="attempts per world (states measured per world)")
+    p.add_argument("--seed", type=int, default=1234)
+    p.add_argument("--set", nargs="*", default=[], metavar="SECTION.FIELD=VALUE")
+    p.add_argument("--out", default=None)
+    args = p.parse_args(argv)
+
+    import jax
+    import numpy as np
+
+    from vags_jax import checkpoint, pipeline
+    from vags_jax import config as C
+    from vags_jax.env import VagsEnv
+
+    lo, hi = (int(x) for x in args.objects.split("-"))
+    cfg = C.replace(checkpoint.load_config(args.run), **C.parse_overrides(args.set))
+    if not 1 <= lo <= hi <= cfg.scene.max_objects:
+        raise SystemExit(f"--objects {args.objects}: need 1 <= MIN <= MAX <= scene.max_objects = {cfg.scene.max_objects}")
+    nets = pipeline.load_vags(args.run, cfg)
+    if nets.success is None:
+        raise SystemExit(f"{args.run} has no success net: train it with the current train.py")
+    params = {"gdnet": nets.gdnet, "vanet": nets.vanet, "success": nets.success, "q_threshold": nets.q_threshold}
+    if nets.ggcnn is not None:
+        params["ggcnn"] = nets.ggcnn
+    env = VagsEnv(cfg)
+    key = jax.random.PRNGKey(args.seed)
+    k_n, k_reset, key = jax.random.split(key, 3)
+    n_obj = np.asarray(jax.random.randint(k_n, (args.worlds,), lo, hi + 1))
+    t0 = time.time()
+    state = env.reset(k_reset, n_obj)
+    env.prepare(args.worlds)
+    step = make_step(cfg, env, nets.ggcnn is not None)
+    rows: dict[str, list] = {}
+    for t in range(args.steps):
+        key, k = jax.random.split(key)
+        state, out = step(params, k, state)
+        for name, v in jax.device_get(out).items():
+            rows.setdefault(name, []).append(np.asarray(v))
+        print(f"step {t + 1}/{args.steps}: {time.time() - t0:.0f} s", file=sys.stderr, flush=True)
+    rows = {k: np.concatenate(v) for k, v in rows.items()}
+    summary = summarize(rows, nets.ggcnn is not None)
+    print(table(summary, nets.ggcnn is not None))
+    if args.out:
+        os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
+        with open(args.out, "w") as f:
+            json.dump({"run": args.run, "networks": nets.source, "objects": args.objects, "worlds": args.worlds,
+                       "steps": args.steps, "seed": args.seed, "move_cost": cfg.vags.move_cost,
+                       "q_threshold": float(nets.q_threshold), "summary": summary,
+                       "wall_s": round(time.time() - t0, 1), "device": str(jax.devices()[0])}, f, indent=1)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
