@@ -103,6 +103,10 @@ def test_config_validation():
         GGCNNConfig(zoom_range=(0.0, 1.0))
     with pytest.raises(ValueError, match="rotation"):
         GGCNNConfig(rotation="half")
+    with pytest.raises(ValueError, match="GGCNNConfig.labels must be one of"):
+        GGCNNConfig(labels="failures")
+    with pytest.raises(ValueError, match="untried_weight"):
+        GGCNNConfig(untried_weight=1.5)
 
 
 # ----------------------------------------------------------------------------- labels
@@ -160,6 +164,39 @@ def test_labels_overlap_batch_and_width_clip():
         assert float(maps.cos[0, 8, 8]) == pytest.approx(1.0)    # only the first covers (8, 8)
     assert float(maps.quality[1, 6, 6]) == 1.0 and float(maps.width[1, 6, 6]) == 1.0
     assert float(maps.quality[1, 0, 0]) == 0.0
+
+
+def test_success_ratio_labels_count_failures():
+    from vags_jax.ggcnn_labels import labels_and_weight
+
+    # theta 0, length 6 -> |du| <= 1; jaw 3 -> |dv| <= 1.5.  A succeeded at (4, 5): u 3..5,
+    # v 4..6.  B failed at (5, 5): u 4..6, v 4..6.  C failed at (9, 9) with jaw 1: u 8..10, v 9.
+    c = cands(center=[[4, 5], [5, 5], [9, 9]], angle=[0.0, 0.0, 0.0], length=[6, 6, 6], jaw=[3, 3, 1],
+              success=[True, False, False])
+    h = w = 12
+    a = {(u, v) for u in range(3, 6) for v in range(4, 7)}
+    b = {(u, v) for u in range(4, 7) for v in range(4, 7)}
+    cc = {(u, v) for u in range(8, 11) for v in [9]}
+    maps = label_maps(c, h, w)  # the default: success ratio
+    q = np.asarray(maps.quality)
+    # 1 where only A covers (u = 3), 1/2 where A and B do (u = 4, 5), 0 where only failures do.
+    assert pixel_set(q == 1.0) == {(3, v) for v in range(4, 7)}
+    assert pixel_set(q == 0.5) == {(u, v) for u in (4, 5) for v in range(4, 7)}
+    assert pixel_set(q > 0) == a
+    # The angle and width come from the success only.
+    assert pixel_set(np.asarray(maps.width) > 0) == a
+    np.testing.assert_allclose(np.asarray(maps.cos)[4:7, 3:6], 1.0)
+    # Loss weight: 1 on every tried pixel (successes and failures), untried_weight elsewhere.
+    _, weight = labels_and_weight(c, h, w, untried_weight=0.25)
+    wt = np.asarray(weight)
+    assert pixel_set(wt == 1.0) == a | b | cc
+    assert pixel_set(wt == 0.25) == {(u, v) for u in range(w) for v in range(h)} - (a | b | cc)
+    # GG-CNN's rule, kept as "positives": the success only, every pixel weight 1.
+    pos, weight = labels_and_weight(c, h, w, mode="positives")
+    assert pixel_set(np.asarray(pos.quality) == 1.0) == a and set(np.unique(pos.quality)) == {0.0, 1.0}
+    assert np.all(np.asarray(weight) == 1.0)
+    with pytest.raises(ValueError, match="label mode must be one of"):
+        label_maps(c, h, w, mode="ratio")
 
 
 def test_labels_reject_bad_shapes():
@@ -290,6 +327,64 @@ def test_peak_lands_on_planted_maximum():
     np.testing.assert_allclose(np.asarray(g.angle), 0.0, atol=1e-6)
     np.testing.assert_allclose(np.asarray(g.width_px), 15.0, rtol=1e-5)
     assert peak(jnp.asarray(q)).tolist() == [list(p) for p in planted]
+
+
+def test_label_peak_is_a_grasp_the_labels_hold():
+    # Two 3 x 3 positives one row apart (theta 0 / 90 deg, length 6 -> 2 px along, jaw 3 -> 3 px
+    # across): A = u 9..11, v 9..11 (angle 0), B = u 9..11, v 13..15 (angle pi/2).  Smoothed
+    # with sigma 2 (g(d) = exp(-d^2 / 8): 1, .882, .607, .325, .135), the gap row v = 12 sums
+    # 2 (g1 + g2 + g3) = 3.63 against 3.55 at v = 11 (g0 + g1 + g2 + g2 + g3 + g4): the
+    # smoothed peak alone is (10, 12), a grasp nobody tried, whose angle averages 0 and 90 deg.
+    c = cands(center=[[10, 10], [10, 14]], angle=[0.0, math.pi / 2], length=[6, 6], jaw=[3, 3],
+              success=[True, True])
+    maps = jax.tree.map(lambda a: a[None], label_maps(c, 24, 24))
+    g = best_grasp(maps)  # the default post-processing
+    u, v = (int(i) for i in g.pixel[0])
+    assert float(maps.quality[0, v, u]) == 1.0, (u, v)
+    # The pixel next to the gap in A or B, with that grasp's own angle.
+    want = {(10, 11): 0.0, (10, 13): math.pi / 2}
+    assert (u, v) in want
+    assert abs(math.remainder(float(g.angle[0]) - want[(u, v)], math.pi)) < 1e-6
+
+
+def test_label_peak_keeps_its_own_angle():
+    # A: theta 0, length 12 -> |du| <= 2, jaw 5 -> |dv| <= 2.5: u 8..12, v 8..12.  B: one pixel
+    # (14, 10) at 45 deg (cos 2theta = 0, sin 2theta = 1).  The peak lies inside A, whose label
+    # angle is 0; smoothing cos / sin (GG-CNN's sigma 2) would add B's sin > 0 there.
+    c = cands(center=[[10, 10], [14, 10]], angle=[0.0, math.pi / 4], length=[12, 3], jaw=[5, 1],
+              success=[True, True])
+    maps = jax.tree.map(lambda a: a[None], label_maps(c, 24, 24))
+    g = best_grasp(maps)
+    u, v = (int(i) for i in g.pixel[0])
+    assert 8 <= u <= 12 and 8 <= v <= 12
+    assert abs(float(g.angle[0])) < 1e-6
+    assert float(g.width_px[0]) == pytest.approx(12.0, rel=1e-5)  # length 12 px, width map 12 / 150
+
+
+def test_grasp_never_in_a_depth_hole():
+    from vags_jax.ggcnn_grasp import predict_grasp
+
+    # A 12 x 12 camera at 0.5 m, the network at 12 x 12 (crop 12, scale 1: pixels map 1:1).
+    # Pixel (3, 4) is a hole (depth 0, inpainted to 0.5 m); the maps' best quality sits there.
+    cam = Camera(width=12, height=12, fx=20.0, fy=20.0)
+    gcfg = GGCNNConfig(input_size=12, quality_sigma=0.0)
+    depth = np.full((1, 12, 12), 0.5, np.float32)
+    depth[0, 4, 3] = 0.0
+    q = np.zeros((1, 12, 12), np.float32)
+    q[0, 4, 3], q[0, 8, 8] = 1.0, 0.6
+
+    class Fixed:  # a "network" that returns these maps
+        def apply(self, params, x):
+            return GraspMaps(jnp.asarray(q), jnp.ones_like(x), jnp.zeros_like(x), jnp.zeros_like(x))
+
+    world, img = predict_grasp(Fixed(), None, jnp.asarray(depth), jnp.eye(4)[None], cam, gcfg, 0.0)
+    assert img.pixel.tolist() == [[8, 8]]
+    # cx = cy = 6: (8 - 6) * 0.5 / 20 = 0.05 m.
+    np.testing.assert_allclose(np.asarray(world.position[0]), [0.05, 0.05, 0.5], atol=1e-6)
+    # With no valid pixel at all, the mask is dropped rather than every pixel.
+    none = best_grasp(GraspMaps(jnp.asarray(q), *(jnp.zeros_like(jnp.asarray(q)),) * 3), gcfg,
+                      jnp.zeros((1, 12, 12), bool))
+    assert none.pixel.tolist() == [[3, 4]]
 
 
 def _rz(yaw):
@@ -435,6 +530,11 @@ def test_loss_is_sum_of_four_mse(model, params, batch):
                   for n in ("quality", "cos", "sin", "width"))
     assert float(loss) == pytest.approx(by_hand, rel=1e-5)
     assert set(terms) == {"quality", "cos", "sin", "width"}
+    w = jnp.asarray(np.random.default_rng(3).uniform(size=x.shape), jnp.float32)
+    weighted, _ = ggcnn_loss(params, model, x, labels, w)
+    by_hand = sum(np.mean(np.asarray(w) * (np.asarray(getattr(pred, n)) - np.asarray(getattr(labels, n))) ** 2)
+                  for n in ("quality", "cos", "sin", "width"))
+    assert float(weighted) == pytest.approx(by_hand, rel=1e-5)
     bad = jax.tree.map(lambda a: a[:, :12], labels)
     with pytest.raises(ValueError, match="labels must be"):
         ggcnn_loss(params, model, x, bad)

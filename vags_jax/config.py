@@ -698,6 +698,7 @@ class Vags:
 
 GGCNN_SIZE_MULTIPLE = 12  # GG-CNN input H, W must be multiples of this (vags_jax.networks.ggcnn)
 GGCNN_ROTATIONS = ("quarter", "any", "none")
+GGCNN_LABELS = ("success_ratio", "positives")  # GGCNNConfig.labels (vags_jax.ggcnn_labels)
 
 
 @dataclass(frozen=True)
@@ -705,8 +706,13 @@ GGCNN_ROTATIONS = ("quarter", "any", "none")
 class GGCNNConfig:
     """GG-CNN input, post-processing and training settings (``Config.ggcnn``).
 
-    The defaults are GG-CNN's: 300 x 300 input, smoothing sigmas 2 / 2 / 1, width / 150,
-    Adam (lr 1e-3, torch's default), batch 8, zoom 0.5-1 and quarter-turn rotations.
+    The defaults are GG-CNN's (300 x 300 input, quality smoothing sigma 2, width / 150, Adam
+    at lr 1e-3, batch 8, zoom 0.5-1 and quarter-turn rotations) except two.  The angle and
+    width are read unsmoothed at the quality peak (sigmas 0; GG-CNN's 2 and 1 mix neighbouring
+    grasps' angles into the peak's, so decoding a label map missed grasps it held).  Labels are
+    ``"success_ratio"``: every tried candidate counts, failures included, and untried pixels
+    weigh ``untried_weight`` in the loss; ``"positives"`` is GG-CNN's rule (successes only,
+    every pixel weight 1), see ``vags_jax.ggcnn_labels``.
     ``train_steps`` Adam updates make ``train.py --stage ggcnn`` (GG-CNN trained for ~50 epochs of
     Cornell's ~900 images at batch 8, ~5,600 updates; our default is of the same order).
     """
@@ -717,14 +723,16 @@ class GGCNNConfig:
     crop_size: Optional[int] = None
     inpaint_iters: int = 64  # neighbour-fill passes; holes wider than ~2x this get the frame mean
     quality_sigma: float = 2.0  # Gaussian smoothing of the quality map (pixels)
-    angle_sigma: float = 2.0  # ... of the cos 2theta / sin 2theta maps
-    width_sigma: float = 1.0  # ... of the width map
+    angle_sigma: float = 0.0  # ... of the cos 2theta / sin 2theta maps (GG-CNN: 2)
+    width_sigma: float = 0.0  # ... of the width map (GG-CNN: 1)
     width_scale: float = 150.0  # width map = opening in input pixels / width_scale
     learning_rate: float = 1e-3
     batch_size: int = 8
     zoom_range: tuple[float, float] = (0.5, 1.0)  # augmentation: crop side fraction, resized up
     rotation: str = "quarter"  # augmentation: "quarter" (0/90/180/270 deg), "any", "none"
     train_steps: int = 4000  # Adam updates of train.py --stage ggcnn
+    labels: str = "success_ratio"  # training labels: "success_ratio" or "positives" (GG-CNN's)
+    untried_weight: float = 0.1  # "success_ratio": loss weight of pixels no candidate covers
 
     def __post_init__(self):
         m = GGCNN_SIZE_MULTIPLE
@@ -747,6 +755,9 @@ class GGCNNConfig:
                f"GGCNNConfig.zoom_range must satisfy 0 < low <= high <= 1, got {self.zoom_range}")
         _check(self.rotation in GGCNN_ROTATIONS,
                f"GGCNNConfig.rotation must be one of {GGCNN_ROTATIONS}, got {self.rotation!r}")
+        _check(self.labels in GGCNN_LABELS,
+               f"GGCNNConfig.labels must be one of {GGCNN_LABELS}, got {self.labels!r}")
+        _within("GGCNNConfig.untried_weight", self.untried_weight, 0, 1.0)
 
 
 @dataclass(frozen=True)
@@ -1040,8 +1051,7 @@ def tiny() -> Config:
         stage2=Stage(name="vanet", n_worlds=4, iterations=20, min_objects=1, max_objects=3, learning_starts=8),
         stage3=Stage(name="alternate", n_worlds=4, iterations=20, min_objects=1, max_objects=3, learning_starts=8),
         # GG-CNN at 24 x 24 (the 96-pixel square of the 128 x 96 image, resized by 1/4).
-        ggcnn=GGCNNConfig(input_size=24, inpaint_iters=16, quality_sigma=1.0, angle_sigma=1.0,
-                          width_sigma=0.5, train_steps=60),
+        ggcnn=GGCNNConfig(input_size=24, inpaint_iters=16, quality_sigma=1.0, train_steps=60),
         ggcnn_data=GGCNNData(views=16, heldout_views=8, candidates=8, scenes_per_batch=4),
     )
 

@@ -28,10 +28,12 @@ and no host round trip between them (``DataMaker``): steps 1-4 (``render_views``
    success when the simulator says so and neither its copy nor its scene had a physics error.
 6. Label sizes in network pixels at the depth d seen at the centre, with the network
    intrinsics' fx: length = (measured pad gap after the lift + ``width_margin``) * fx / d
-   (failures keep the full stroke: they are never drawn), jaw = ``jaw`` * fx / d.
+   (failures keep the full stroke: their centre third is where they count as tried),
+   jaw = ``jaw`` * fx / d.
 
 The dataset keeps only the network inputs (float16) and the candidates (``GraspCandidates``,
-(N, K)); label maps are drawn per training batch (``ggcnn_labels.label_maps``).  Training
+(N, K)); label maps are drawn per training batch (``ggcnn_labels.label_maps``, by ``ggcnn.labels``, a training setting: it does not
+change the data).  Training
 views and held-out views come from disjoint key streams (``TRAIN_STREAM``, ``HELDOUT_STREAM``
 folded into ``PRNGKey(cfg.seed)``).
 
@@ -60,7 +62,6 @@ from vags_jax import camera, config as config_lib
 from vags_jax.config import Config
 from vags_jax.ggcnn_grasp import image_to_world, network_input
 from vags_jax.ggcnn_labels import GraspCandidates
-from vags_jax.ggcnn_process import crop_resize, valid_depth
 from vags_jax.sim import SimState
 
 # Bump when the way views or labels are made changes: every cached dataset is then remade.
@@ -73,7 +74,7 @@ NOT_DATA = {
     "net": None, "dqn": None, "replay": None, "stage1": None, "benchmark": None,
     "exploration": ("daes", "eps_start", "eps_end", "eps_decay"),
     "ggcnn": ("quality_sigma", "angle_sigma", "width_sigma", "width_scale", "learning_rate",
-              "batch_size", "zoom_range", "rotation", "train_steps"),
+              "batch_size", "zoom_range", "rotation", "train_steps", "labels", "untried_weight"),
 }
 VIEWS_FILE = "views.npz"
 META_FILE = "meta.json"
@@ -196,7 +197,8 @@ class Views:
 
     sim: SimState of the S scenes; depth: (S, h, w) raw camera depth (0 = missing); pose:
     (S, 4, 4); is_global, object_view: (S,) bool; n_objects: (S,) int32; x, filled: (S, P, P)
-    network input and inpainted depth (m); k_in: (S, 3, 3) network intrinsics; center: (S, K,
+    network input and inpainted depth (m); valid: (S, P, P) bool network pixels with depth
+    before inpainting; k_in: (S, 3, 3) network intrinsics; center: (S, K,
     2) [u, v]; angle: (S, K); position: (S, K, 3), yaw: (S, K) the candidates' world grasps.
     """
 
@@ -208,6 +210,7 @@ class Views:
     n_objects: jax.Array
     x: jax.Array
     filled: jax.Array
+    valid: jax.Array
     k_in: jax.Array
     center: jax.Array
     angle: jax.Array
@@ -225,13 +228,12 @@ def render_views(cfg: Config, env, key) -> Views:
     state = env.step_reset(k_reset, n, observe=True)
     pose, is_global = choose_views(cfg, k_view, state.height, jnp.asarray(env.global_pose))
     img = env.camera_image(state.sim, pose, k_cam)
-    x, filled, k_in = network_input(img.depth, cfg.camera, cfg.ggcnn)
-    valid = valid_depth(crop_resize(img.depth, camera.intrinsics(cfg.camera), cfg.ggcnn)[0])
+    x, filled, k_in, valid = network_input(img.depth, cfg.camera, cfg.ggcnn)
     obj = object_pixels(filled, valid, k_in, pose, cfg.workspace.table_z, cfg.exploration.height_threshold)
     center, angle, has_obj = sample_candidates(k_cand, obj, valid, k)
     g = image_to_world(center, angle, jnp.zeros_like(angle), filled, k_in, pose, cfg.grasp.depth_below_surface)
     return Views(sim=state.sim, depth=img.depth, pose=pose, is_global=is_global, object_view=has_obj,
-                 n_objects=n, x=x, filled=filled, k_in=k_in, center=center, angle=angle,
+                 n_objects=n, x=x, filled=filled, valid=valid, k_in=k_in, center=center, angle=angle,
                  position=g.position, yaw=g.yaw)
 
 

@@ -7,9 +7,9 @@ prediction at the same pixel mean the same grasp.
 
 Pipeline (conventions of ``vags_jax.ggcnn_process``)::
 
-    x, filled, K_in = network_input(depth, cam_cfg, gcfg)    # (B, S, S) each, S = input_size
+    x, filled, K_in, valid = network_input(depth, cam_cfg, gcfg)  # (B, S, S), S = input_size
     maps = GGCNN().apply(params, x)                          # GraspMaps (B, S, S)
-    img = best_grasp(maps, gcfg)                             # peak of the smoothed quality
+    img = best_grasp(maps, gcfg, valid)                      # quality peak, never in a hole
     grasp = image_to_world(img.pixel, img.angle, img.width_px, filled, K_in, pose, depth_below)
 
 The grasp centre is ``depth_below`` (``Grasp.depth_below_surface``) under the surface point
@@ -24,20 +24,21 @@ import jax.numpy as jnp
 from vags_jax import camera
 from vags_jax.config import Camera, GGCNNConfig
 from vags_jax.ggcnn_process import (ImageGrasp, WorldGrasp, best_grasp, crop_resize, grasp_to_world,
-                                    preprocess_depth)
+                                    preprocess_depth, valid_depth)
 from vags_jax.networks.ggcnn import GGCNN
 
 
 def network_input(depth: jax.Array, cam_cfg: Camera, gcfg: GGCNNConfig):
-    """Camera depth (B, h, w) metres (0 = missing) -> ``(x, filled, K_in)``.
+    """Camera depth (B, h, w) metres (0 = missing) -> ``(x, filled, K_in, valid)``.
 
     x: (B, S, S) float32 network input (inpainted, mean-subtracted, clipped);
     filled: (B, S, S) inpainted depth in metres at the network resolution;
-    K_in: (B, 3, 3) intrinsics of that resolution (``crop_resize``).
+    K_in: (B, 3, 3) intrinsics of that resolution (``crop_resize``);
+    valid: (B, S, S) bool, the pixels that had depth before inpainting.
     """
     d, k_in = crop_resize(depth, camera.intrinsics(cam_cfg), gcfg)
     x, filled, _ = preprocess_depth(d, gcfg)
-    return x, filled, k_in
+    return x, filled, k_in, valid_depth(d)
 
 
 def image_to_world(pixel, angle, width_px, filled, k_in, pose, depth_below: float) -> WorldGrasp:
@@ -62,10 +63,11 @@ def predict_grasp(model: GGCNN, params, depth: jax.Array, pose: jax.Array, cam_c
     """GG-CNN's best grasp in each camera image -> ``(WorldGrasp (B,), ImageGrasp (B,))``.
 
     depth: (B, h, w) raw camera depth (``VagsEnv.camera_image``); pose: (B, 4, 4) where it was
-    taken; params: ``{"params": ...}`` of GG-CNN.
+    taken; params: ``{"params": ...}`` of GG-CNN.  The grasp's pixel had depth in the raw
+    image whenever any pixel did (``best_grasp``'s ``valid``).
     """
-    x, filled, k_in = network_input(depth, cam_cfg, gcfg)
-    img = best_grasp(model.apply(params, x), gcfg)
+    x, filled, k_in, valid = network_input(depth, cam_cfg, gcfg)
+    img = best_grasp(model.apply(params, x), gcfg, valid)
     return image_to_world(img.pixel, img.angle, img.width_px, filled, k_in, pose, depth_below), img
 
 

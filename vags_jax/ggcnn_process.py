@@ -25,7 +25,7 @@ Pipeline::
     depth_in, K_in = crop_resize(camera_depth, K, cfg)     # (B, 300, 300), (B, 3, 3)
     x, depth_m, valid = preprocess_depth(depth_in, cfg)     # network input, inpainted metres
     maps = GGCNN().apply(params, x)                         # GraspMaps (B, 300, 300)
-    g = best_grasp(maps, cfg)                               # ImageGrasp, (B,) per field
+    g = best_grasp(maps, cfg, valid_depth(depth_in))        # ImageGrasp, (B,) per field
     world = grasp_to_world(g.pixel, g.angle, g.width_px,
                            sample_depth(depth_m, g.pixel), K_in, cam_pose)
 
@@ -37,6 +37,7 @@ outside ``jit`` (inside ``jit`` it cannot raise: such frames come back as zeros 
 from __future__ import annotations
 
 import math
+from typing import Optional
 
 import flax.struct
 import jax
@@ -246,7 +247,9 @@ def postprocess(maps: GraspMaps, cfg: GGCNNConfig = GGCNNConfig()):
     Quality is blurred with ``cfg.quality_sigma``; cos 2theta and sin 2theta with
     ``cfg.angle_sigma`` before ``angle = atan2(sin, cos) / 2`` (GG-CNN blurs the angle map
     itself, which smears across the +-pi/2 wrap; blurring the cos/sin pair does not); width
-    with ``cfg.width_sigma``, then ``width_px = width * cfg.width_scale``.
+    with ``cfg.width_sigma``, then ``width_px = width * cfg.width_scale``.  The defaults blur
+    only the quality (angle and width sigmas 0): blurring cos / sin mixes a neighbouring
+    grasp's angle into the peak's, giving an angle nobody tried.
     """
     quality = gaussian_blur(maps.quality, cfg.quality_sigma)
     cos = gaussian_blur(maps.cos, cfg.angle_sigma)
@@ -275,11 +278,28 @@ def sample_depth(depth: jax.Array, pixel: jax.Array) -> jax.Array:
     return _at(depth, jnp.asarray(pixel, jnp.int32))
 
 
-def best_grasp(maps: GraspMaps, cfg: GGCNNConfig = GGCNNConfig()) -> ImageGrasp:
-    """Post-process GG-CNN maps (``(B, H, W)`` each) and pick each image's best grasp (the
-    peak of the smoothed quality)."""
+def peak_score(raw: jax.Array, smoothed: jax.Array, valid: Optional[jax.Array] = None) -> jax.Array:
+    """The map whose argmax is the grasp: ``min(raw, smoothed)`` quality, ``(B, H, W)``.
+
+    A pixel must score high itself, not only its neighbourhood: the smoothed peak alone can
+    land in the gap between two narrow positives (or on a failure between successes), a grasp
+    the maps never held.  ``valid`` ``(B, H, W)`` bool (pixels with raw depth, ``valid_depth``):
+    elsewhere the score is -inf, unless an image has no valid pixel at all (then it is kept),
+    so the grasp never sits in an inpainted hole, where its depth is invented.
+    """
+    score = jnp.minimum(raw.astype(jnp.float32), smoothed)
+    if valid is None:
+        return score
+    keep = valid | ~jnp.any(valid, axis=(1, 2), keepdims=True)
+    return jnp.where(keep, score, -jnp.inf)
+
+
+def best_grasp(maps: GraspMaps, cfg: GGCNNConfig = GGCNNConfig(), valid: Optional[jax.Array] = None) -> ImageGrasp:
+    """Post-process GG-CNN maps (``(B, H, W)`` each) and pick each image's best grasp: the
+    argmax of ``peak_score`` (``valid`` ``(B, H, W)`` bool or None, see there), with the
+    smoothed quality, the angle and the width read there."""
     quality, angle, width_px = postprocess(maps, cfg)
-    px = peak(quality)
+    px = peak(peak_score(maps.quality, quality, valid))
     return ImageGrasp(px, _at(quality, px), _at(angle, px), _at(width_px, px))
 
 

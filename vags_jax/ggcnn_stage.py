@@ -3,9 +3,9 @@ and its checkpoint inside a run directory (``train.py --stage ggcnn``).
 
 * ``train_ggcnn``: ``ggcnn.train_steps`` Adam updates (``ggcnn_train.train_step``, rotation and
   zoom augmentation), ``ggcnn.batch_size`` views drawn uniformly (with replacement) from the
-  training views per update; label maps are drawn per batch from the stored candidates
-  (``ggcnn_labels.label_maps``).  One jitted ``lax.scan`` runs a chunk of updates; after each
-  chunk the loss on the held-out views' labels (no augmentation) is computed.
+  training views per update; label maps and loss weights are drawn per batch from the stored
+  candidates by ``ggcnn.labels`` (``ggcnn_labels.labels_and_weight``).  One jitted ``lax.scan`` runs a chunk of updates; after each
+  chunk the (weighted) loss on the held-out views' labels (no augmentation) is computed.
 * ``heldout_accuracy``: ``ggcnn_data.heldout_views`` fresh scenes from the held-out key stream
   (by default the scenes of the held-out views), rendered and given candidates exactly as for
   the data; then, in copies of each scene, GG-CNN's best grasp (``ggcnn_grasp.predict_grasp``)
@@ -36,7 +36,7 @@ from vags_jax.config import Config
 from vags_jax.ggcnn_data import (HELDOUT_STREAM, DataMaker, GGCNNDataset, ViewSet, Views, label_sizes,
                                  stream_keys)
 from vags_jax.ggcnn_grasp import image_to_world, predict_grasp
-from vags_jax.ggcnn_labels import GraspCandidates, label_maps
+from vags_jax.ggcnn_labels import GraspCandidates, label_maps, labels_and_weight
 from vags_jax.ggcnn_process import best_grasp
 from vags_jax.ggcnn_train import GGCNNTrainState, init_train_state, make_optimizer, train_step
 from vags_jax.networks.ggcnn import GGCNN
@@ -64,6 +64,11 @@ def _take(c: GraspCandidates, idx) -> GraspCandidates:
     return jax.tree.map(lambda a: a[idx], c)
 
 
+def _labels(cands: GraspCandidates, p: int, g):
+    """Label maps and loss weight ``(B, p, p)`` of ``cands`` ``(B, K)`` by ``g.labels``."""
+    return labels_and_weight(cands, p, p, g.width_scale, mode=g.labels, untried_weight=g.untried_weight)
+
+
 def _chunk_impl(state: GGCNNTrainState, key, x_all, cands: GraspCandidates, first, *, cfg: Config, model,
                 optimizer, n: int, total: int):
     """``n`` updates (those past update ``total`` leave the state unchanged) -> (state, key,
@@ -76,8 +81,8 @@ def _chunk_impl(state: GGCNNTrainState, key, x_all, cands: GraspCandidates, firs
         key, k_idx, k_aug = jax.random.split(key, 3)
         idx = jax.random.randint(k_idx, (g.batch_size,), 0, x_all.shape[0])
         x = x_all[idx].astype(jnp.float32)
-        labels = label_maps(_take(cands, idx), p, p, g.width_scale)
-        new, m = train_step(state, k_aug, x, labels, model=model, optimizer=optimizer, cfg=g, augment=True)
+        labels, weight = _labels(_take(cands, idx), p, g)
+        new, m = train_step(state, k_aug, x, labels, weight, model=model, optimizer=optimizer, cfg=g, augment=True)
         live = first + i < total
         state = jax.tree.map(lambda a, b: jnp.where(live, a, b), new, state)
         return (state, key), (m, live)
@@ -98,8 +103,9 @@ def _heldout_impl(params, x_all, cands: GraspCandidates, *, cfg: Config, model, 
     def one(args):
         i, w = args
         pred = model.apply(params, x_all[i].astype(jnp.float32))
-        lab = label_maps(_take(cands, i), p, p, cfg.ggcnn.width_scale)
-        return {k: jnp.sum(jnp.mean((getattr(pred, k) - getattr(lab, k)) ** 2, axis=(1, 2)) * w) for k in TERMS}
+        lab, wmap = _labels(_take(cands, i), p, cfg.ggcnn)
+        return {k: jnp.sum(jnp.mean(wmap * (getattr(pred, k) - getattr(lab, k)) ** 2, axis=(1, 2)) * w)
+                for k in TERMS}
 
     sums = jax.lax.map(one, (idx, weight))
     out = {k: jnp.sum(v) / n for k, v in sums.items()}
@@ -162,8 +168,9 @@ def _policy_impl(params, v: Views, success, gap, *, cfg: Config, model, worlds: 
     s, p = v.x.shape[0], v.x.shape[-1]
     net, _ = predict_grasp(model, params, v.depth, v.pose, cfg.camera, g, below)
     length, jaw = label_sizes(cfg, v.filled, v.k_in, v.center, success, gap)
-    maps = label_maps(GraspCandidates(v.center, v.angle, length, jaw, success), p, p, g.width_scale)
-    img = best_grasp(maps, g)
+    maps = label_maps(GraspCandidates(v.center, v.angle, length, jaw, success), p, p, g.width_scale,
+                      mode=g.labels)
+    img = best_grasp(maps, g, v.valid)
     peak = image_to_world(img.pixel[:, None], img.angle[:, None], img.width_px[:, None], v.filled, v.k_in,
                           v.pose, below)
     position = jnp.concatenate([net.position, peak.position[:, 0]])

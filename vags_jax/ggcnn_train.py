@@ -2,8 +2,10 @@
 
 Training data are pairs of a preprocessed depth image ``x`` ``(B, H, W)`` (output of
 ``ggcnn_process.preprocess_depth``) and label maps ``GraspMaps`` ``(B, H, W)`` (from
-``ggcnn_labels.label_maps``).  The loss is GG-CNN's: the sum of the four mean squared errors
-(quality, cos 2theta, sin 2theta, width), optimised with Adam.
+``ggcnn_labels.label_maps``), with an optional per-pixel loss weight ``(B, H, W)``
+(``ggcnn_labels.labels_and_weight``: tried pixels 1, untried ones less).  The loss is GG-CNN's,
+the sum of the four mean squared errors (quality, cos 2theta, sin 2theta, width), each squared
+error multiplied by the weight when one is given; optimised with Adam.
 
 Augmentation (as GG-CNN's training): each sample is rotated about the image centre by a random
 angle (``GGCNNConfig.rotation``: quarter turns, any angle, or none) and zoomed by a factor ``z``
@@ -13,7 +15,8 @@ centre and ``R(phi)`` the turn from +u towards +v (``vags_jax.networks.rotation`
 content turns by ``phi`` and grows by ``1 / z``.  Depth is sampled bilinearly (edges extended);
 labels by nearest pixel (0 outside), then their values follow the geometry: theta becomes
 ``theta + phi`` (cos 2theta, sin 2theta rotated by ``2 phi``) and the opening grows by ``1 / z``
-(width = min(width / z, 1), GG-CNN's clip at 150 px).
+(width = min(width / z, 1), GG-CNN's clip at 150 px).  The weight map is resampled like the
+labels (0 outside the source image: no data there).
 """
 from __future__ import annotations
 
@@ -38,13 +41,14 @@ def _check(cond: bool, msg: str) -> None:
 # ----------------------------------------------------------------------------- loss
 
 
-def ggcnn_loss(params, model: GGCNN, x: jax.Array, labels: GraspMaps):
-    """GG-CNN loss: sum of the four per-map MSEs.
+def ggcnn_loss(params, model: GGCNN, x: jax.Array, labels: GraspMaps, weight: Optional[jax.Array] = None):
+    """GG-CNN loss: sum of the four per-map (weighted) MSEs.
 
     Args:
       params: ``{"params": ...}`` of ``model``.
       x: ``(B, H, W)`` preprocessed depth.
       labels: GraspMaps ``(B, H, W)``.
+      weight: ``(B, H, W)`` per-pixel weight of the squared errors, or None (all 1).
     Returns:
       ``(loss scalar, {"quality", "cos", "sin", "width"} scalar MSEs)``.
     """
@@ -54,8 +58,9 @@ def ggcnn_loss(params, model: GGCNN, x: jax.Array, labels: GraspMaps):
         f"ggcnn_loss: labels must be (B, H, W) = {pred.quality.shape} like the input, "
         f"got {tuple(jnp.shape(labels.quality))}",
     )
+    w = 1.0 if weight is None else weight
     terms = {
-        name: jnp.mean((getattr(pred, name) - getattr(labels, name)) ** 2)
+        name: jnp.mean(w * (getattr(pred, name) - getattr(labels, name)) ** 2)
         for name in ("quality", "cos", "sin", "width")
     }
     return sum(terms.values()), terms
@@ -88,13 +93,14 @@ def _snap(x: jax.Array) -> jax.Array:
     return jnp.where(jnp.abs(x - r) < 1e-6, r, x)
 
 
-def augment_sample(x: jax.Array, labels: GraspMaps, angle, zoom):
+def augment_sample(x: jax.Array, labels: GraspMaps, angle, zoom, weight: Optional[jax.Array] = None):
     """Rotate one sample by ``angle`` and zoom it by ``zoom`` (module docstring).
 
     Args:
-      x: ``(H, W)`` preprocessed depth; labels: GraspMaps ``(H, W)``; angle, zoom: scalars.
+      x: ``(H, W)`` preprocessed depth; labels: GraspMaps ``(H, W)``; angle, zoom: scalars;
+      weight: ``(H, W)`` loss weight or None.
     Returns:
-      ``(x', labels')`` of the same shapes.
+      ``(x', labels')`` of the same shapes, and ``weight'`` third when ``weight`` is given.
     """
     h, w = x.shape
     cy, cx = (h - 1) / 2.0, (w - 1) / 2.0
@@ -108,7 +114,8 @@ def augment_sample(x: jax.Array, labels: GraspMaps, angle, zoom):
 
     ru, rv = jnp.round(src_u).astype(jnp.int32), jnp.round(src_v).astype(jnp.int32)
     inside = (ru >= 0) & (ru < w) & (rv >= 0) & (rv < h)
-    lab = labels.stack()[jnp.clip(rv, 0, h - 1), jnp.clip(ru, 0, w - 1)]
+    stacked = labels.stack() if weight is None else jnp.concatenate([labels.stack(), weight[..., None]], -1)
+    lab = stacked[jnp.clip(rv, 0, h - 1), jnp.clip(ru, 0, w - 1)]
     lab = jnp.where(inside[..., None], lab, 0.0)
     q, cos2, sin2, wid = lab[..., 0], lab[..., 1], lab[..., 2], lab[..., 3]
     c2, s2 = c * c - s * s, 2 * s * c  # cos 2phi, sin 2phi
@@ -118,18 +125,22 @@ def augment_sample(x: jax.Array, labels: GraspMaps, angle, zoom):
         sin=sin2 * c2 + cos2 * s2,
         width=jnp.minimum(wid / zoom, 1.0),
     )
-    return x_out, out
+    return (x_out, out) if weight is None else (x_out, out, lab[..., 4])
 
 
-def augment_batch(key: jax.Array, x: jax.Array, labels: GraspMaps, cfg: GGCNNConfig = GGCNNConfig()):
-    """Augment a batch ``x`` ``(B, H, W)``, labels GraspMaps ``(B, H, W)``: a random rotation and
-    zoom per sample (``sample_augmentation``).  Quarter turns need square images."""
+def augment_batch(key: jax.Array, x: jax.Array, labels: GraspMaps, cfg: GGCNNConfig = GGCNNConfig(),
+                  weight: Optional[jax.Array] = None):
+    """Augment a batch ``x`` ``(B, H, W)``, labels GraspMaps ``(B, H, W)`` (and the loss weight
+    ``(B, H, W)`` when given, returned third): a random rotation and zoom per sample
+    (``sample_augmentation``).  Quarter turns need square images."""
     _check(x.ndim == 3, f"augment_batch: x must be (B, H, W), got shape {x.shape}")
     _check(cfg.rotation == "none" or x.shape[1] == x.shape[2],
            f"augment_batch: rotation augmentation needs square images, got {x.shape[1]} x {x.shape[2]}; "
            "set GGCNNConfig.rotation = 'none'")
     angle, zoom = sample_augmentation(key, x.shape[0], cfg)
-    return jax.vmap(augment_sample)(x, labels, angle, zoom)
+    if weight is None:
+        return jax.vmap(augment_sample)(x, labels, angle, zoom)
+    return jax.vmap(augment_sample)(x, labels, angle, zoom, weight)
 
 
 # ----------------------------------------------------------------------------- training
@@ -157,20 +168,23 @@ def init_train_state(key: jax.Array, cfg: GGCNNConfig = GGCNNConfig(), model: Op
     return GGCNNTrainState(params, optimizer.init(params), jnp.zeros((), jnp.int32))
 
 
-def train_step(state: GGCNNTrainState, key: jax.Array, x: jax.Array, labels: GraspMaps, *,
-               model: GGCNN, optimizer: optax.GradientTransformation, cfg: GGCNNConfig,
-               augment: bool = True):
+def train_step(state: GGCNNTrainState, key: jax.Array, x: jax.Array, labels: GraspMaps,
+               weight: Optional[jax.Array] = None, *, model: GGCNN, optimizer: optax.GradientTransformation,
+               cfg: GGCNNConfig, augment: bool = True):
     """One Adam update on a batch (augmented with ``key`` when ``augment``).
 
     Args:
-      state: GGCNNTrainState; key: PRNG key; x: ``(B, H, W)``; labels: GraspMaps ``(B, H, W)``.
+      state: GGCNNTrainState; key: PRNG key; x: ``(B, H, W)``; labels: GraspMaps ``(B, H, W)``;
+      weight: ``(B, H, W)`` loss weight or None (``ggcnn_loss``).
     Returns:
       ``(new state, metrics)`` with metrics ``{"loss", "quality", "cos", "sin", "width"}``
       scalars, the loss before the update.
     """
-    if augment:
+    if augment and weight is None:
         x, labels = augment_batch(key, x, labels, cfg)
-    (loss, terms), grads = jax.value_and_grad(ggcnn_loss, has_aux=True)(state.params, model, x, labels)
+    elif augment:
+        x, labels, weight = augment_batch(key, x, labels, cfg, weight)
+    (loss, terms), grads = jax.value_and_grad(ggcnn_loss, has_aux=True)(state.params, model, x, labels, weight)
     updates, opt_state = optimizer.update(grads, state.opt_state, state.params)
     params = optax.apply_updates(state.params, updates)
     return GGCNNTrainState(params, opt_state, state.step + 1), {"loss": loss, **terms}
@@ -179,7 +193,7 @@ def train_step(state: GGCNNTrainState, key: jax.Array, x: jax.Array, labels: Gra
 def make_train_step(cfg: GGCNNConfig = GGCNNConfig(), model: Optional[GGCNN] = None,
                     optimizer: Optional[optax.GradientTransformation] = None,
                     augment: bool = True) -> Callable:
-    """Jitted ``step(state, key, x, labels) -> (state, metrics)`` (see ``train_step``)."""
+    """Jitted ``step(state, key, x, labels[, weight]) -> (state, metrics)`` (see ``train_step``)."""
     model = GGCNN() if model is None else model
     optimizer = make_optimizer(cfg) if optimizer is None else optimizer
     return jax.jit(functools.partial(train_step, model=model, optimizer=optimizer, cfg=cfg, augment=augment))

@@ -37,7 +37,7 @@ def _trace_fn(cfg: Config, env):
                 "score": decision.score, "q_view": q_view, "view": decision.view, "direct": decision.direct,
                 "local_depth": close.image.depth, "color": state.color, "height": state.height, "cell": cell}
         if close.image_grasp is not None:  # the "ggcnn" close-view planner: its maps and peak
-            x, _, _ = network_input(close.image.depth, cfg.camera, cfg.ggcnn)
+            x, _, _, _ = network_input(close.image.depth, cfg.camera, cfg.ggcnn)
             quality, angle, width = postprocess(model.apply(params["ggcnn"], x), cfg.ggcnn)
             info.update(quality=quality, angle=angle, width=width, pixel=close.image_grasp.pixel,
                         angle_peak=close.image_grasp.angle)
