@@ -167,8 +167,6 @@ def test_labels_overlap_batch_and_width_clip():
 
 
 def test_success_ratio_labels_count_failures():
-    from vags_jax.ggcnn_labels import labels_and_weight
-
     # theta 0, length 6 -> |du| <= 1; jaw 3 -> |dv| <= 1.5.  A succeeded at (4, 5): u 3..5,
     # v 4..6.  B failed at (5, 5): u 4..6, v 4..6.  C failed at (9, 9) with jaw 1: u 8..10, v 9.
     c = cands(center=[[4, 5], [5, 5], [9, 9]], angle=[0.0, 0.0, 0.0], length=[6, 6, 6], jaw=[3, 3, 1],
@@ -187,6 +185,8 @@ def test_success_ratio_labels_count_failures():
     assert pixel_set(np.asarray(maps.width) > 0) == a
     np.testing.assert_allclose(np.asarray(maps.cos)[4:7, 3:6], 1.0)
     # Loss weight: 1 on every tried pixel (successes and failures), untried_weight elsewhere.
+    from vags_jax.ggcnn_labels import labels_and_weight
+
     _, weight = labels_and_weight(c, h, w, untried_weight=0.25)
     wt = np.asarray(weight)
     assert pixel_set(wt == 1.0) == a | b | cc

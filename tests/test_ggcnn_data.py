@@ -249,6 +249,25 @@ def test_load_ggcnn_errors(tmp_path):
     assert "\n" not in str(e.value)
 
 
+def test_ggcnn_reuse_checks_the_label_rule(tmp_path):
+    from vags_jax import pipeline
+
+    cfg = C.tiny()
+    run = str(tmp_path / "run")
+    ggcnn_stage.save_ggcnn(run, init_ggcnn(jax.random.PRNGKey(1), size=12), {"steps": 1}, cfg)
+    assert pipeline.ggcnn_reusable(run, cfg) is None
+    assert "another config" in pipeline.ggcnn_reusable(run, C.replace(cfg, **{"ggcnn.labels": "positives"}))
+    # A GG-CNN saved before ggcnn.labels existed learnt GG-CNN's positives, not today's default.
+    path = os.path.join(run, "ggcnn", checkpoint.CONFIG_FILE)
+    with open(path) as f:
+        saved = json.load(f)
+    del saved["ggcnn"]["labels"]
+    with open(path, "w") as f:
+        json.dump(saved, f)
+    assert "another config" in pipeline.ggcnn_reusable(run, cfg)
+    assert pipeline.ggcnn_reusable(run, C.replace(cfg, **{"ggcnn.labels": "positives"})) is None
+
+
 @pytest.mark.parametrize("argv, match", [
     (["--stage", "nope"], "invalid choice: 'nope'"),
     (["--stage", "ggcnn", "--resume"], "drop --resume"),
