@@ -769,9 +769,9 @@ class GGCNNData:
     (the config's scenes): a close view (``Camera.viewpoint_height`` above a random object
     cell, shifted by up to ``view_jitter``) or, with probability ``global_view_share``, the
     global view.  ``candidates`` grasps per view (centres on object pixels of the view, angles
-    uniform) are tried in parallel copies of the scene; successes become label rectangles
-    (centre-third rule) of length = the measured jaw gap + ``width_margin`` and across-size
-    ``jaw``.  ``scenes_per_batch * candidates`` worlds run together.
+    uniform) are tried in parallel copies of the scene and become label rectangles
+    (centre-third rule; ``GGCNNConfig.labels`` says how failures count) of length = the
+    measured jaw gap + ``width_margin`` (failures: the full stroke) and across-size ``jaw``.  ``scenes_per_batch * candidates`` worlds run together.
     """
 
     views: int = 2048  # training views
