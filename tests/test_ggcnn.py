@@ -121,11 +121,11 @@ def test_labels_centre_third_rule():
         jaw=[4, 4, 3, 2],
         success=[True, False, True, True],
     )
-    maps = label_maps(c, h, w)
+    maps = label_maps(c, h, w, mode="positives")  # GG-CNN's rule (B's failure overlaps A at (7, 6))
     assert maps.quality.shape == (h, w)
     # Hand-computed centre thirds.  A: theta 0, length 18 -> |du| <= 3; jaw 4 -> |dv| <= 2.
     a = {(u, v) for u in range(7, 14) for v in range(6, 11)}
-    # B failed: not drawn.  C: theta 90 deg, length 12 -> |dv| <= 2; jaw 3 -> |du| <= 1.5.
+    # B failed: not drawn (in "success_ratio" its overlap with A, (7, 6), would be 1/2).  C: theta 90 deg, length 12 -> |dv| <= 2; jaw 3 -> |du| <= 1.5.
     cc = {(u, v) for u in range(19, 22) for v in range(12, 17)}
     # D: theta 45 deg, length 12 -> |du + dv| / sqrt 2 <= 2; jaw 2 -> |dv - du| / sqrt 2 <= 1.
     d = {(5 + du, 15 + dv) for du, dv in [(-1, -1), (0, 0), (1, 1), (0, -1), (-1, 0), (1, 0), (0, 1)]}
@@ -143,7 +143,7 @@ def test_labels_centre_third_rule():
         assert np.all(np.asarray(m)[outside] == 0)
     # Candidates are tested in chunks; the chunk size (here 3: one full chunk and one padded)
     # does not change the maps.
-    for name, a, b in zip(("q", "c", "s", "w"), maps.stack().T, label_maps(c, h, w, chunk=3).stack().T):
+    for name, a, b in zip(("q", "c", "s", "w"), maps.stack().T, label_maps(c, h, w, chunk=3, mode="positives").stack().T):
         np.testing.assert_array_equal(np.asarray(a), np.asarray(b), err_msg=name)
 
 
@@ -191,6 +191,10 @@ def test_success_ratio_labels_count_failures():
     wt = np.asarray(weight)
     assert pixel_set(wt == 1.0) == a | b | cc
     assert pixel_set(wt == 0.25) == {(u, v) for u in range(w) for v in range(h)} - (a | b | cc)
+    # Chunks of 2 (one padded with a dummy at (0, 0)): the same maps and weights.
+    maps2, weight2 = labels_and_weight(c, h, w, chunk=2, untried_weight=0.25)
+    np.testing.assert_array_equal(np.asarray(maps2.stack()), np.asarray(maps.stack()))
+    np.testing.assert_array_equal(np.asarray(weight2), wt)
     # GG-CNN's rule, kept as "positives": the success only, every pixel weight 1.
     pos, weight = labels_and_weight(c, h, w, mode="positives")
     assert pixel_set(np.asarray(pos.quality) == 1.0) == a and set(np.unique(pos.quality)) == {0.0, 1.0}
