@@ -80,8 +80,8 @@ def make_step(cfg, env, has_ggcnn: bool):
         k_gd, k_gg, k_rand, k_rv, k_obs = jax.random.split(key, 5)
         gdnet_q = nets.gdnet_q(params["gdnet"])
         q_grasp = gdnet_q(state.color, state.height)
-        q_view = nets.vanet.apply(params["vanet"], state.color, state.height, False)
-        q_success = nets.gdnet.apply(params["success"], state.color, state.height, False)
+        q_view = nets.q_fn(nets.vanet, params["vanet"])(state.color, state.height)
+        q_success = nets.q_fn(nets.gdnet, params["success"])(state.color, state.height)
         d_s = decide(q_grasp, q_view, gate_threshold(dataclasses.replace(cfg.vags, gate="success"), None),
                      q_success, "success")
         d_q = decide(q_grasp, q_view, params["q_threshold"])

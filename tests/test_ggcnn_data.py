@@ -252,12 +252,12 @@ def test_load_ggcnn_errors(tmp_path):
 def test_ggcnn_reuse_checks_the_label_rule(tmp_path):
     from vags_jax import pipeline
 
-    cfg = C.tiny()
+    cfg = C.replace(C.tiny(), **{"ggcnn.labels": "success_ratio"})
     run = str(tmp_path / "run")
     ggcnn_stage.save_ggcnn(run, init_ggcnn(jax.random.PRNGKey(1), size=12), {"steps": 1}, cfg)
     assert pipeline.ggcnn_reusable(run, cfg) is None
     assert "another config" in pipeline.ggcnn_reusable(run, C.replace(cfg, **{"ggcnn.labels": "positives"}))
-    # A GG-CNN saved before ggcnn.labels existed learnt GG-CNN's positives, not today's default.
+    # A GG-CNN saved before ggcnn.labels existed learnt GG-CNN's positives, whatever the default.
     path = os.path.join(run, "ggcnn", checkpoint.CONFIG_FILE)
     with open(path) as f:
         saved = json.load(f)

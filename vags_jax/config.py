@@ -535,6 +535,9 @@ class Net:
     small_width: int = 32  # base width of the "small" trunk
     dtype: str = "float32"  # compute dtype: "float32" | "bfloat16"
     n_rotations: int = 16
+    # Worlds per Q-network forward when VAGS decides for many worlds (stages 2-3, eval): GDNet's
+    # rotations of 512 worlds at once need tens of GB of activations.  0: all worlds at once.
+    forward_batch: int = 128
 
     def __post_init__(self):
         _check(
@@ -545,6 +548,7 @@ class Net:
         _within("Net.head_channels", self.head_channels, 1, 1024)
         _within("Net.small_width", self.small_width, 1, 1024)
         _within("Net.n_rotations", self.n_rotations, 1, 64)
+        _within("Net.forward_batch", self.forward_batch, 0, 1 << 20)
 
 
 @dataclass(frozen=True)
@@ -731,7 +735,9 @@ class GGCNNConfig:
     zoom_range: tuple[float, float] = (0.5, 1.0)  # augmentation: crop side fraction, resized up
     rotation: str = "quarter"  # augmentation: "quarter" (0/90/180/270 deg), "any", "none"
     train_steps: int = 4000  # Adam updates of train.py --stage ggcnn
-    labels: str = "success_ratio"  # training labels: "success_ratio" or "positives" (GG-CNN's)
+    # Training labels: "positives" (GG-CNN's rule) or "success_ratio" (failures count); the latter
+    # held out worse on the H100 (bench/RESULTS.md, "Viewpoints that pay").
+    labels: str = "positives"
     untried_weight: float = 0.1  # "success_ratio": loss weight of pixels no candidate covers
 
     def __post_init__(self):

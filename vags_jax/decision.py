@@ -27,7 +27,7 @@ import jax
 import jax.numpy as jnp
 from flax import struct
 
-from vags_jax import view_fusion
+from vags_jax import batching, view_fusion
 from vags_jax.config import Config, Vags
 from vags_jax.env import CameraImage, EnvState, VagsEnv, select_attempt
 
@@ -174,17 +174,23 @@ class VagsNets:
         self.gdnet, self.vanet = make_qnet(cfg.net, "gdnet"), make_qnet(cfg.net, "vanet")
         self.ggcnn = GGCNN()
 
+    def q_fn(self, net, variables) -> Callable:
+        """``(color, height) -> Q`` of ``net`` (eval mode) over the worlds in groups of
+        ``net.forward_batch`` (GDNet's rotations of many worlds need tens of GB at once)."""
+        one = lambda c, h: net.apply(variables, c, h, False)  # noqa: E731
+        return lambda color, height: batching.map_in_groups(one, (color, height), self.cfg.net.forward_batch)
+
     def gdnet_q(self, variables) -> Callable:
         """``(color, height) -> (B, R, H, W)`` GDNet's Q with ``variables`` (eval mode)."""
-        return lambda color, height: self.gdnet.apply(variables, color, height, False)
+        return self.q_fn(self.gdnet, variables)
 
     def decide(self, params: dict, state: EnvState):
         """-> (Decision, GDNet's Q (B, R, H, W), VANet's Q (B, H, W)) on the global views."""
-        q_grasp = self.gdnet.apply(params["gdnet"], state.color, state.height, False)
-        q_view = self.vanet.apply(params["vanet"], state.color, state.height, False)
+        q_grasp = self.gdnet_q(params["gdnet"])(state.color, state.height)
+        q_view = self.q_fn(self.vanet, params["vanet"])(state.color, state.height)
         q_success = None
         if self.cfg.vags.gate == "success":
-            q_success = self.gdnet.apply(params["success"], state.color, state.height, False)
+            q_success = self.q_fn(self.gdnet, params["success"])(state.color, state.height)
         return decide(q_grasp, q_view, params["threshold"], q_success, self.cfg.vags.gate), q_grasp, q_view
 
     def plan(self, params: dict, key, env: VagsEnv, state: EnvState):

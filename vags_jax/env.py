@@ -25,7 +25,7 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
-from vags_jax import camera, heightmap, render
+from vags_jax import batching, camera, heightmap, render
 from vags_jax.config import Config
 from vags_jax.scene import build_scene
 from vags_jax.sim import GraspResult, SimState, Simulator, check_overflow
@@ -149,15 +149,7 @@ class VagsEnv:
         """``fn(*args)`` over B worlds in groups of ``camera.render_batch`` (memory stays that of
         one group; the Warp renderer's context is built for that many worlds).  Every leaf of
         ``args`` and of the output has the leading world axis B."""
-        chunk = self.cfg.camera.render_batch
-        if B <= chunk:
-            return fn(*args)
-        n = -(-B // chunk)
-        pad = n * chunk - B
-        grouped = [jnp.concatenate([a, jnp.repeat(a[-1:], pad, 0)]) if pad else a for a in args]
-        grouped = [a.reshape((n, chunk) + a.shape[1:]) for a in grouped]
-        out = jax.lax.map(lambda xs: fn(*xs), tuple(grouped))
-        return jax.tree.map(lambda x: x.reshape((n * chunk,) + x.shape[2:])[:B], out)
+        return batching.map_in_groups(fn, tuple(args), self.cfg.camera.render_batch)
 
     def _sensor(self, sim_state: SimState, cam_pose: jax.Array, key: Optional[jax.Array]):
         """What ``fn(xpos, xmat, rgb, pose, keys, size)`` needs to render B worlds: the render

@@ -43,7 +43,7 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
-from vags_jax import dqn, exploration, replay
+from vags_jax import batching, dqn, exploration, replay
 from vags_jax.config import Config, Stage, Vags
 from vags_jax.decision import Decision, gate_score, gate_threshold, greedy, plan_attempt, value_at
 from vags_jax.env import EnvState, VagsEnv
@@ -152,14 +152,27 @@ class VagsStage:
     def _vars(ts: dqn.TrainState) -> dict:
         return {"params": ts.params, "batch_stats": ts.batch_stats}
 
+    def _in_groups(self, fn, *args):
+        """``fn(*args)`` over the worlds in groups of ``net.forward_batch`` (inference memory)."""
+        return batching.map_in_groups(fn, args, self.cfg.net.forward_batch)
+
+    def _gdnet_q(self, ts: dqn.TrainState):
+        """``(color, height) -> (B, R, H, W)`` the learner's Q (eval mode), in world groups."""
+        one = lambda c, h: self._apply_gdnet(self._vars(ts), c, h, False)  # noqa: E731
+        return lambda color, height: self._in_groups(one, color, height)
+
     def _greedy(self, gdnet: dqn.TrainState, s: EnvState):
         """GDNet (eval mode) on the global views -> argmax (B, 3) [rotation, row, col], max (B,)."""
-        return greedy(self._apply_gdnet(self._vars(gdnet), s.color, s.height, False))
+        return self._in_groups(lambda c, h: greedy(self._apply_gdnet(self._vars(gdnet), c, h, False)),
+                               s.color, s.height)
 
     def _p_direct(self, success: dqn.TrainState, s: EnvState, grasp: jax.Array) -> jax.Array:
         """The success net's estimate (B,) of grasp (B, 3) on the global views (its rotation only)."""
-        q = self._apply_gdnet(self._vars(success), s.color, s.height, False, rotations=grasp[:, :1])
-        return value_at(q, grasp.at[:, 0].set(0))
+        def one(c, h, g):
+            q = self._apply_gdnet(self._vars(success), c, h, False, rotations=g[:, :1])
+            return value_at(q, g.at[:, 0].set(0))
+
+        return self._in_groups(one, s.color, s.height, grasp)
 
     def _n_objects(self, key: jax.Array, n_worlds: int) -> jax.Array:
         s = self.stage
@@ -229,7 +242,8 @@ class VagsStage:
         s = state.env
         B = s.n_worlds
         eps = exploration.epsilon(state.iteration, cfg.exploration)
-        q_view = self._apply_vanet(self._vars(state.vanet), s.color, s.height, False)  # (B, H, W)
+        q_view = self._in_groups(lambda c, h: self._apply_vanet(self._vars(state.vanet), c, h, False),
+                                 s.color, s.height)  # (B, H, W)
         view, v_explored = exploration.select_pixel(k_vx, q_view, s.height, eps, cfg.exploration)
         if self.which == 3:
             grasp, g_explored = exploration.select_grasp_from_greedy(
@@ -238,8 +252,8 @@ class VagsStage:
             grasp, g_explored = state.gd_grasp, jnp.zeros((B,), bool)
         decision, p_direct, p_view = self._decision(state, q_view, grasp, view)
         direct = decision.direct
-        gdnet_q = lambda c, h: self._apply_gdnet(self._vars(state.gdnet), c, h, False)  # noqa: E731
-        attempt, close = plan_attempt(cfg, env, s, decision, k_img, gdnet_q, state.ggcnn, self.ggcnn)
+        attempt, close = plan_attempt(cfg, env, s, decision, k_img, self._gdnet_q(state.gdnet), state.ggcnn,
+                                      self.ggcnn)
 
         extra = st.max_attempts_extra
         resetting = env.round_over(s, extra) | s.sim.error  # rounds that ended last iteration
