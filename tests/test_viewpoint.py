@@ -269,6 +269,42 @@ def test_success_gate_compares_estimates_on_hand_set_maps():
         decide(jnp.asarray(qg), jnp.asarray(qv), thr, None, gate="success")
 
 
+def test_success_gate_subtracts_each_estimates_running_bias():
+    """Calibration [direct, view] = each estimate's bias (estimate - outcome): an over-estimating
+    VANet (bias 0.3) no longer wins a move it would win uncalibrated."""
+    from vags_jax.decision import decide, gate_score
+
+    p_direct, p_view = jnp.array([0.7, 0.2]), jnp.array([1.1, 0.6])
+    cal = jnp.array([-0.1, 0.3])  # the success net under-estimates by 0.1, VANet over-estimates by 0.3
+    # By hand: (0.7 + 0.1) - (1.1 - 0.3) = 0.0 and (0.2 + 0.1) - (0.6 - 0.3) = 0.0; raw: -0.4 and -0.4.
+    np.testing.assert_allclose(np.asarray(gate_score("success", None, p_direct, p_view, cal)), [0.0, 0.0], atol=1e-6)
+    np.testing.assert_allclose(np.asarray(gate_score("success", None, p_direct, p_view)), [-0.4, -0.4], atol=1e-6)
+    qg = np.zeros((1, 1, 2, 2), np.float32)
+    qg[0, 0, 1, 1] = 1.0
+    qs = np.full((1, 1, 2, 2), 0.7, np.float32)
+    qv = np.array([[[0.0, 1.1], [0.0, 0.0]]], np.float32)
+    moved = decide(jnp.asarray(qg), jnp.asarray(qv), -0.05, jnp.asarray(qs), "success")
+    kept = decide(jnp.asarray(qg), jnp.asarray(qv), -0.05, jnp.asarray(qs), "success", cal)
+    assert np.asarray(moved.direct).tolist() == [False] and np.asarray(kept.direct).tolist() == [True]
+
+
+def test_calibration_tracks_estimate_minus_outcome_of_greedy_attempts():
+    from vags_jax.decision import update_calibration
+
+    p_direct = jnp.array([0.9, 0.8, 0.5, 0.4])
+    p_view = jnp.array([1.2, 1.0, 0.7, 0.9])
+    success = jnp.array([True, False, True, False])
+    direct = jnp.array([True, True, False, False])
+    view = jnp.array([False, False, True, False])  # world 3 explored: not counted
+    cal = update_calibration(jnp.array([0.2, 0.0]), p_direct, p_view, success, direct, view, 0.5)
+    # By hand: direct errors (0.9 - 1, 0.8 - 0) -> mean 0.35; 0.5 * 0.2 + 0.5 * 0.35 = 0.275.
+    # View: one attempt, 0.7 - 1 = -0.3; 0.5 * 0 + 0.5 * -0.3 = -0.15.
+    np.testing.assert_allclose(np.asarray(cal), [0.275, -0.15], atol=1e-6)
+    none = jnp.zeros((4,), bool)
+    same = update_calibration(jnp.array([0.2, -0.1]), p_direct, p_view, success, none, none, 0.5)
+    np.testing.assert_allclose(np.asarray(same), [0.2, -0.1], atol=1e-6)  # no attempt: unchanged
+
+
 def test_view_reward_hand_cases():
     """VANet's reward.  "success": 1 when the grasp after the move succeeds, else 0.  "eq5"
     (reconstructed): 0 on failure whatever the Q values; 1 on success; 2 on success when

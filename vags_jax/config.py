@@ -666,6 +666,9 @@ class Vags:
       over its last views (GDNet changed).  Stage 2 always gates with "q" (VANet and the
       success net are still learning).
     move_cost: estimated success a move must add ("success" gate).
+    calibration_decay: per-iteration decay of the running bias of each estimate ("success"
+      gate): the mean of estimate - outcome over stages 2-3's greedy attempts, subtracted before
+      comparing (VANet's largest value over the map is biased upwards).
     view_reward: VANet's reward.  "success": 1 when the grasp after the move succeeds, else 0;
       "eq5": paper eq. 5 as reconstructed: ``success_reward`` on success plus ``view_bonus``
       when GDNet's largest Q on the next global view exceeds the one before the move.
@@ -678,6 +681,7 @@ class Vags:
     threshold: Optional[float] = None
     threshold_quantile: float = 0.5
     move_cost: float = 0.05
+    calibration_decay: float = 0.9
     view_reward: str = "success"
     vanet_gamma: float = 0.0
     success_reward: float = 1.0
@@ -693,6 +697,7 @@ class Vags:
             _within("Vags.threshold", self.threshold, -1e6, 1e6)
         _within("Vags.threshold_quantile", self.threshold_quantile, 0.0, 1.0)
         _within("Vags.move_cost", self.move_cost, -1.0, 1.0)
+        _within("Vags.calibration_decay", self.calibration_decay, 0.0, 1.0, hi_open=True)
         _within("Vags.vanet_gamma", self.vanet_gamma, 0.0, 1.0, hi_open=True)
         _within("Vags.success_reward", self.success_reward, 0.0, 1e3, lo_open=True)
         _within("Vags.view_bonus", self.view_bonus, 0.0, 1e3)

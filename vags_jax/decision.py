@@ -76,13 +76,31 @@ def value_at(q: jax.Array, action: jax.Array) -> jax.Array:
     return q[b, action[:, 0], action[:, 1], action[:, 2]].astype(jnp.float32)
 
 
-def gate_score(gate: str, q_max: jax.Array, p_direct: Optional[jax.Array], p_view: Optional[jax.Array]):
-    """The gate's score (B,): GDNet's largest Q ("q") or p_direct - p_view ("success")."""
+def gate_score(gate: str, q_max: jax.Array, p_direct: Optional[jax.Array], p_view: Optional[jax.Array],
+               calibration: Optional[jax.Array] = None):
+    """The gate's score (B,): GDNet's largest Q ("q") or the calibrated p_direct - p_view
+    ("success"); calibration (2,) [direct, view]: each estimate's running bias (estimate minus
+    outcome, ``update_calibration``), subtracted from it (None: no correction)."""
     if gate == "q":
         return q_max.astype(jnp.float32)
     if p_direct is None or p_view is None:
         raise ValueError("the 'success' gate needs the success net's and VANet's estimates")
-    return (p_direct - p_view).astype(jnp.float32)
+    cal = jnp.zeros((2,), jnp.float32) if calibration is None else jnp.asarray(calibration, jnp.float32)
+    return ((p_direct - cal[0]) - (p_view - cal[1])).astype(jnp.float32)
+
+
+def update_calibration(calibration: jax.Array, p_direct: jax.Array, p_view: jax.Array, success: jax.Array,
+                       direct: jax.Array, view: jax.Array, decay: float) -> jax.Array:
+    """The running bias (2,) [direct, view] of the success estimates after one iteration:
+    p_direct, p_view (B,) the estimates, success (B,) bool the outcomes, direct / view (B,) bool
+    the greedy attempts of each kind.  Each entry moves to ``decay * old + (1 - decay) * mean(p -
+    success)`` over its attempts, and stays where it has none."""
+    out = []
+    for i, (p, m) in enumerate(((p_direct, direct), (p_view, view))):
+        n = m.sum()
+        err = jnp.where(m, p - success.astype(jnp.float32), 0.0).sum() / jnp.maximum(n, 1)
+        out.append(jnp.where(n > 0, decay * calibration[i] + (1.0 - decay) * err, calibration[i]))
+    return jnp.stack(out).astype(jnp.float32)
 
 
 def gate_threshold(vcfg: Vags, q_threshold) -> jax.Array:
@@ -102,15 +120,15 @@ def _check_maps(q_grasp, q_view) -> None:
 
 
 def decide(q_grasp: jax.Array, q_view: jax.Array, threshold, q_success: Optional[jax.Array] = None,
-           gate: str = "q") -> Decision:
+           gate: str = "q", calibration: Optional[jax.Array] = None) -> Decision:
     """The decision on Q maps: q_grasp (B, R, H, W), q_view (B, H, W), threshold scalar (or
-    (B,)), q_success (B, R, H, W) for the "success" gate; grasp directly where the gate's score
-    exceeds ``threshold``."""
+    (B,)), q_success (B, R, H, W) and calibration (2,) for the "success" gate; grasp directly
+    where the gate's score exceeds ``threshold``."""
     _check_maps(q_grasp, q_view)
     grasp, q_max = greedy(q_grasp)
     view, v_max = greedy(q_view)
     p_direct = None if q_success is None else value_at(q_success, grasp)
-    score = gate_score(gate, q_max, p_direct, v_max)
+    score = gate_score(gate, q_max, p_direct, v_max, calibration)
     return Decision(direct=score > threshold, grasp=grasp, view=view, q_max=q_max, score=score)
 
 
@@ -191,7 +209,9 @@ class VagsNets:
         q_success = None
         if self.cfg.vags.gate == "success":
             q_success = self.q_fn(self.gdnet, params["success"])(state.color, state.height)
-        return decide(q_grasp, q_view, params["threshold"], q_success, self.cfg.vags.gate), q_grasp, q_view
+        decision = decide(q_grasp, q_view, params["threshold"], q_success, self.cfg.vags.gate,
+                          params.get("calibration"))
+        return decision, q_grasp, q_view
 
     def plan(self, params: dict, key, env: VagsEnv, state: EnvState):
         """-> (Attempt, Decision, CloseView, GDNet's Q, VANet's Q)."""
@@ -201,5 +221,5 @@ class VagsNets:
         return attempt, decision, close, q_grasp, q_view
 
 
-__all__ = ["Decision", "CloseView", "greedy", "value_at", "gate_score", "gate_threshold", "decide",
+__all__ = ["Decision", "CloseView", "greedy", "value_at", "gate_score", "update_calibration", "gate_threshold", "decide",
            "close_view_grasp", "plan_attempt", "VagsNets"]

@@ -307,6 +307,8 @@ def vags_params(networks, cfg: Config, threshold=None) -> dict:
         params["ggcnn"] = networks.ggcnn
     if networks.success is not None:
         params["success"] = networks.success
+    if networks.calibration is not None:
+        params["calibration"] = networks.calibration
     return params
 
 

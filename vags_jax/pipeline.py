@@ -132,13 +132,15 @@ class VagsNetworks:
     ({"params", "batch_stats"}; success None in runs from before the success net), GG-CNN's
     {"params"}, the "q" gate's threshold () float32 (``q_threshold``; ``evaluate.vags_params``
     turns it into the configured gate's threshold), and where they came from (``source``:
-    "stage3 step N" or "stage2 step N", static)."""
+    "stage3 step N" or "stage2 step N", static).  calibration: (2,) float32 the running bias
+    [direct, view] of the success estimates (None in runs from before it was kept)."""
 
     gdnet: Any
     vanet: Any
     ggcnn: Any
     q_threshold: jax.Array
     success: Any = None
+    calibration: Any = None
     source: str = struct.field(pytree_node=False, default="")
 
 
@@ -158,7 +160,8 @@ def save_networks(run_dir: str, name: str, step: int, state, cfg: Config) -> str
     thr = final_threshold(state, cfg.vags) if name == "stage3" else state.threshold
     d = networks_dir(run_dir, name)
     checkpoint.save(d, step, {"gdnet": as_vars(state.gdnet), "vanet": as_vars(state.vanet),
-                              "success": as_vars(state.success), "threshold": thr})
+                              "success": as_vars(state.success), "threshold": thr,
+                              "calibration": state.calibration})
     return d
 
 
@@ -185,13 +188,18 @@ def load_vags(run_dir: str, cfg: Optional[Config] = None, step: Optional[int] = 
     gd, s = checkpoint.restore_part(d, "gdnet", _vars_target(cfg, "gdnet"), step)
     va, _ = checkpoint.restore_part(d, "vanet", _vars_target(cfg, "vanet"), s)
     thr, _ = checkpoint.restore_part(d, "threshold", np.zeros((), np.float32), s)
-    su = None
-    if "success" in checkpoint.saved_parts(d, s):
+    su = cal = None
+    parts = checkpoint.saved_parts(d, s)
+    if "success" in parts:
         su, _ = checkpoint.restore_part(d, "success", _vars_target(cfg, "gdnet"), s)
+    if "calibration" in parts:
+        cal, _ = checkpoint.restore_part(d, "calibration", np.zeros((2,), np.float32), s)
+        cal = jnp.asarray(cal, jnp.float32)
     gg = None
     if os.path.isdir(ggcnn_stage.ggcnn_dir(run_dir)):
         gg, _ = ggcnn_stage.load_ggcnn(run_dir)
     return VagsNetworks(gdnet=gd, vanet=va, ggcnn=gg, q_threshold=jnp.asarray(thr, jnp.float32), success=su,
+                        calibration=cal,
                         source=f"{found[0]} step {s}")
 
 

@@ -45,7 +45,8 @@ from flax import struct
 
 from vags_jax import batching, dqn, exploration, replay
 from vags_jax.config import Config, Stage, Vags
-from vags_jax.decision import Decision, gate_score, gate_threshold, greedy, plan_attempt, value_at
+from vags_jax.decision import (Decision, gate_score, gate_threshold, greedy, plan_attempt, update_calibration,
+                               value_at)
 from vags_jax.env import EnvState, VagsEnv
 from vags_jax.networks import init_qnet, make_qnet
 from vags_jax.networks.ggcnn import GGCNN
@@ -59,7 +60,8 @@ class VagsTrainState:
     stage 2; the success net has GDNet's architecture and learns with gamma 0);
     vanet_replay / gdnet_replay: prioritized replays of ``GraspTransition`` (VANet's actions
     (2,) [row, col]; GDNet's (3,)); ggcnn: GG-CNN's ``{"params"}`` (frozen); threshold: ()
-    float32, the "q" gate's threshold; gd_grasp: (B, 3) int32 GDNet's argmax [rotation, row, col] on each
+    float32, the "q" gate's threshold; calibration: (2,) float32 the running bias [direct, view]
+    of the success estimates (``decision.update_calibration``); gd_grasp: (B, 3) int32 GDNet's argmax [rotation, row, col] on each
     world's current global view; gd_qmax: (B,) float32 its largest Q; key: (2,) uint32;
     iteration, attempts: () int32.
     """
@@ -72,6 +74,7 @@ class VagsTrainState:
     gdnet_replay: replay.ReplayState
     ggcnn: Any
     threshold: jax.Array
+    calibration: jax.Array
     gd_grasp: jax.Array
     gd_qmax: jax.Array
     key: jax.Array
@@ -83,7 +86,7 @@ class VagsTrainState:
 METRICS = (
     "success_rate", "success_direct", "success_view", "view_share", "view_bonus_rate", "explored",
     "epsilon", "loss_vanet", "td_abs_vanet", "loss_gdnet", "td_abs_gdnet", "loss_success", "td_abs_success",
-    "q_max", "q_view_max", "p_direct", "p_view",
+    "q_max", "q_view_max", "p_direct", "p_view", "bias_direct", "bias_view",
     "threshold", "rounds_ended", "rounds_cleared", "objects_on_table", "physics_errors", "buffer_overflow",
     "replay_size_vanet", "replay_size_gdnet", "updates", "attempts", "attempts_total", "worlds_resetting",
 )
@@ -203,6 +206,7 @@ class VagsStage:
         # Every leaf its own buffer (``run`` donates the state, and a buffer may be donated once).
         return VagsTrainState(env=env_state, gdnet=gdnet, vanet=vanet, success=success, vanet_replay=va_buffer,
                               gdnet_replay=gd_buffer, ggcnn=ggcnn_params, threshold=thr.reshape(()),
+                              calibration=jnp.zeros((2,), jnp.float32),
                               gd_grasp=gd_grasp, gd_qmax=gd_qmax, key=k_loop,
                               iteration=jnp.zeros((), jnp.int32), attempts=jnp.zeros((), jnp.int32))
 
@@ -232,7 +236,7 @@ class VagsStage:
         gate = "q" if self.which == 2 else cfg.vags.gate
         p_direct = self._p_direct(state.success, s, state.gd_grasp)
         p_view = q_view.reshape(q_view.shape[0], -1).max(axis=1)
-        score = gate_score(gate, state.gd_qmax, p_direct, p_view)
+        score = gate_score(gate, state.gd_qmax, p_direct, p_view, state.calibration)
         thr = state.threshold if gate == "q" else gate_threshold(cfg.vags, state.threshold)
         return Decision(direct=score > thr, grasp=grasp, view=view, q_max=state.gd_qmax, score=score), p_direct, p_view
 
@@ -265,6 +269,8 @@ class VagsStage:
         success = result.success & acting
         over = env.round_over(s2, extra) | s2.sim.error
         viewing, direct_acting = acting & ~direct, acting & direct
+        calibration = update_calibration(state.calibration, p_direct, p_view, success, direct_acting & ~g_explored,
+                                         viewing & ~v_explored, cfg.vags.calibration_decay)
 
         r_view = view_reward(success, state.gd_qmax, gd_qmax2, cfg.vags)
         va_buffer = replay.add(state.vanet_replay, replay.make_grasp_transition(
@@ -300,6 +306,7 @@ class VagsStage:
             "q_view_max": p_view.mean(),
             "p_direct": per((p_direct * acting).sum(), n_act),
             "p_view": per((p_view * acting).sum(), n_act),
+            "bias_direct": calibration[0], "bias_view": calibration[1],
             "threshold": state.threshold,
             "rounds_ended": (over & acting).sum(),
             "rounds_cleared": (acting & (env.n_remaining(s2) == 0)).sum(),
@@ -315,7 +322,8 @@ class VagsStage:
         }
         metrics = {k: jnp.asarray(v, jnp.float32) for k, v in metrics.items()}
         new_state = state.replace(env=s2, gdnet=gdnet, vanet=vanet, success=succ_net, vanet_replay=va_buffer,
-                                  gdnet_replay=gd_buffer, gd_grasp=gd_grasp2, gd_qmax=gd_qmax2, key=key,
+                                  gdnet_replay=gd_buffer, calibration=calibration, gd_grasp=gd_grasp2,
+                                  gd_qmax=gd_qmax2, key=key,
                                   iteration=state.iteration + 1, attempts=attempts)
         return new_state, metrics
 
