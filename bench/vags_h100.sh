@@ -17,7 +17,8 @@ case $stage in
     python train.py --config gpu --stage ggcnn --out runs/ggcnn_data --data-dir data/ggcnn \
       --set ggcnn.train_steps=1 > "$out/ggcnn_data.txt" 2>&1; tail -4 "$out/ggcnn_data.txt" ;;
   train)
-    if [ -f "$run/config.json" ]; then resume=(--resume); else resume=(--config gpu); fi
+    # TRAIN_SET: --set overrides for a fresh run (e.g. a smaller GG-CNN when device time is short).
+    if [ -f "$run/config.json" ]; then resume=(--resume); else resume=(--config gpu ${TRAIN_SET:+--set $TRAIN_SET}); fi
     python train.py "${resume[@]}" --out "$run" --data-dir data/ggcnn --checkpoint-every 1000 \
       --max-minutes "${MIN:-8}" --quiet > "$out/train_$(date +%H%M%S).txt" 2>&1 || true
     tail -3 "$out"/train_*.txt | cut -c1-1500

@@ -8,6 +8,9 @@
 #   bench/viewpoints_h100.sh OUT_DIR states   bench/viewpoint_states.py on 6-10 and 1-5 objects
 #   bench/viewpoints_h100.sh OUT_DIR ablate   the paper's planner and gate on the same networks
 #   bench/viewpoints_h100.sh OUT_DIR sweep    the Fig. 6 sweep, ROUNDS (default 20) rounds a group
+# One H100 needs about 25 minutes for train (GG-CNN ~4.4 min, stage 1 ~4.2, stages 2-3 ~6-8),
+# eval (a VAGS table takes over a minute with its compiles) and states; bench/RESULTS.md
+# "Viewpoints that pay" tells how a shorter lease ended.
 # JAX's persistent compilation cache (JAX_COMPILATION_CACHE_DIR, default /tmp/jax_cache) lets
 # the evaluations after the first skip most compiling.
 set -euo pipefail
