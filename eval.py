@@ -86,9 +86,11 @@ def parse_args(argv=None):
     p.add_argument("--objects", default=None, choices=("train", "unseen", "legacy"),
                    help="object set of the scenes (default: the config's pool; 'unseen': the held-out "
                         "shapes, never trained on)")
-    p.add_argument("--scenes", default=None, choices=("paper", "legacy"),
-                   help="'legacy': the first benchmark's scenes (fixed blocks scattered apart, noiseless "
-                        "camera from the old pose), for comparisons with earlier results")
+    p.add_argument("--scenes", default=None, choices=("paper", "edge", "legacy"),
+                   help="'edge': the variant with piles up to the workspace edges and a global view that "
+                        "just holds the workspace (docs/benchmark.md); 'legacy': the first benchmark's "
+                        "scenes (fixed blocks scattered apart, noiseless camera from the old pose), for "
+                        "comparisons with earlier results")
     return p.parse_args(argv)
 
 
@@ -248,7 +250,8 @@ def main(argv=None) -> int:
                 checkpoint.read(args.run, args.step, parts=["learner"])
         else:
             run_cfg = C.preset(args.config or "tiny")
-        scene_over = dict(C.LEGACY_SCENES) if args.scenes == "legacy" else {}
+        scene_over = {"legacy": C.LEGACY_SCENES, "edge": C.EDGE_SCENES}.get(args.scenes, {})
+        scene_over = dict(scene_over)
         if args.objects:
             scene_over.update({"scene.shapes": C.object_pool(args.objects, run_cfg.scene.pool_size),
                                "scene.copies_per_shape": 1})

@@ -128,3 +128,35 @@ def test_viewpoint_pose_above_surface_looking_down(viewpoint_height):
     np.testing.assert_allclose(np.asarray(z), viewpoint_height, atol=1e-6)
     # Unbatched call.
     assert camera.viewpoint_pose(pix[0], hm[0], WS, cam).shape == (4, 4)
+
+
+def _corner_margins(cam_cfg, ws):
+    """Pixels between the workspace's table corners and the nearest image border (min over
+    corners and borders), and the corners' rows."""
+    h = ws.size / 2
+    corners = jnp.array([[ws.center[0] + sx * h, ws.center[1] + sy * h, ws.table_z]
+                         for sx in (-1, 1) for sy in (-1, 1)], jnp.float32)
+    uv, z = camera.project(corners, camera.global_pose(cam_cfg), cam_cfg)
+    uv = np.asarray(uv)
+    assert (np.asarray(z) > 0).all()
+    m = min(uv[:, 0].min(), cam_cfg.width - 1 - uv[:, 0].max(), uv[:, 1].min(), cam_cfg.height - 1 - uv[:, 1].max())
+    return float(m), uv[:, 1]
+
+
+def test_edge_variant_view_just_holds_the_workspace():
+    """The "edge" scenes: the global camera on the default's line of sight, moved in until the
+    workspace's near edge meets the image border (under 2 px to spare, every corner still in
+    view), where the default keeps a wide margin; piles drop closer to the edges."""
+    from vags_jax import config as C
+
+    default, edge = C.preset("gpu"), C.preset("gpu-edge")
+    m_default, _ = _corner_margins(default.camera, default.workspace)
+    m_edge, rows = _corner_margins(edge.camera, edge.workspace)
+    assert m_default > 40
+    assert 0 <= m_edge < 2
+    assert rows.max() > edge.camera.height - 3  # the near corners sit on the bottom border
+    d_dir = np.asarray(default.camera.global_position) / np.linalg.norm(default.camera.global_position)
+    e_dir = np.asarray(edge.camera.global_position) / np.linalg.norm(edge.camera.global_position)
+    assert np.degrees(np.arccos(np.clip(d_dir @ e_dir, -1, 1))) < 0.2  # same line of sight
+    assert edge.scene.drop_margin - edge.scene.pile_radius == pytest.approx(0.035)
+    assert default.scene.drop_margin > edge.scene.drop_margin
