@@ -70,7 +70,7 @@ def parse_args(argv=None):
                    help="vags: pictures of the first --record-rounds rounds of each group")
     p.add_argument("--record-rounds", type=cli.int_in(1, 1000), default=1,
                    help="rounds per group that --record draws (default 1)")
-    p.add_argument("--config", default=None, help="preset when there is no --run: tiny | gpu | paper | default (default: tiny)")
+    p.add_argument("--config", default=None, help="preset when there is no --run: tiny | gpu | gpu-edge | paper | default (default: tiny)")
     p.add_argument("--set", nargs="*", default=[], metavar="SECTION.FIELD=VALUE",
                    help="evaluation config overrides, e.g. scene.max_objects=10 benchmark.max_attempts_extra=5")
     p.add_argument("--groups", default=None,

@@ -52,7 +52,7 @@ ITERATION_KEYS = ("stage1.iterations", "stage2.iterations", "stage3.iterations")
 
 def parse_args(argv=None):
     p = cli.ArgumentParser(prog=PROG, description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--config", default=None, help="preset: tiny | gpu | paper | default (default: tiny)")
+    p.add_argument("--config", default=None, help="preset: tiny | gpu | gpu-edge | paper | default (default: tiny)")
     p.add_argument("--set", nargs="*", default=[], metavar="SECTION.FIELD=VALUE",
                    help="config overrides, e.g. stage1.iterations=200 net.trunk=small")
     p.add_argument("--out", required=True, help="run directory")
