@@ -68,7 +68,7 @@ def make_step(cfg, env, has_ggcnn: bool):
 
     from vags_jax import exploration
     from vags_jax.config import replace
-    from vags_jax.decision import VagsNets, close_view_grasp, decide, gate_score, gate_threshold, greedy
+    from vags_jax.decision import VagsNets, close_view_grasp, decide, gate_threshold, greedy, value_at
     from vags_jax.topdown import TopDown
 
     nets, oracle = VagsNets(cfg), TopDown(env)
@@ -83,7 +83,7 @@ def make_step(cfg, env, has_ggcnn: bool):
         q_view = nets.q_fn(nets.vanet, params["vanet"])(state.color, state.height)
         q_success = nets.q_fn(nets.gdnet, params["success"])(state.color, state.height)
         d_s = decide(q_grasp, q_view, gate_threshold(dataclasses.replace(cfg.vags, gate="success"), None),
-                     q_success, "success")  # uncalibrated: p_direct and p_view are read back from it
+                     q_success, "success", params["calibration"])
         d_q = decide(q_grasp, q_view, params["q_threshold"])
         pos, yaw = env.grasp_pose(state, d_q.grasp[:, 1:], d_q.grasp[:, 0])
         attempts = {"direct": env.direct_attempt(pos, yaw)}
@@ -100,11 +100,9 @@ def make_step(cfg, env, has_ggcnn: bool):
         rand_view = jnp.stack(jnp.unravel_index(cell, state.height.shape[1:]), -1).astype(jnp.int32)
         attempts["random_gdnet"], _ = close_view_grasp(cfg_gd, env, state, rand_view, k_rv, gdnet_q)
         out = {name: env.step_attempt(state, a, observe=False)[1].success for name, a in attempts.items()}
-        p_view = jnp.max(q_view.reshape(q_view.shape[0], -1), axis=1)
-        p_direct = d_s.score + p_view
-        calibrated = gate_score("success", d_q.q_max, p_direct, p_view, params["calibration"])
-        out.update(q_max=d_q.q_max, p_direct=p_direct, p_view=p_view,
-                   direct_success_gate=calibrated > -cfg.vags.move_cost, direct_q_gate=d_q.direct,
+        out.update(q_max=d_q.q_max, p_direct=value_at(q_success, d_q.grasp),
+                   p_view=jnp.max(q_view.reshape(q_view.shape[0], -1), axis=1),
+                   direct_success_gate=d_s.direct, direct_q_gate=d_q.direct,
                    objects=env.n_remaining(state), live=(env.n_remaining(state) > 0) & ~state.sim.error)
         nxt, _ = env.step_attempt(state, attempts["direct"], k_obs if noisy else None)
         return nxt, out
