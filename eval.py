@@ -15,7 +15,7 @@
 Policies: vags (the default for a run with stage 2 or 3 networks: GDNet, VANet, GG-CNN and
 the run's decision threshold, or --threshold), gdnet (the default for a stage-1 run; --step
 picks a checkpoint), ggcnn and ggcnn-close (need --run with a GG-CNN from train.py --stage
-ggcnn), random, highest, heuristic (see vags_jax/evaluate.py).  --no-viewpoint runs VAGS with
+ggcnn), random, highest, heuristic (see vags_jax/benchmark/protocol.py).  --no-viewpoint runs VAGS with
 its GDNet alone (threshold -inf: the paper's "w/o VANet" ablation).  --threshold-sweep A:B:STEP
 evaluates VAGS at each absolute threshold (paper Fig. 6), --quantile-sweep A:B:STEP at the
 quantiles of the largest GDNet Q that VAGS saw at its decisions in the main run (our Q scale
@@ -151,7 +151,7 @@ def parse_sweep(text: str, flag: str, lo=None, hi=None) -> list[float]:
 
 
 def run_has_vags(run: str) -> bool:
-    from vags_jax import checkpoint, pipeline
+    from vags_jax.stages import checkpoint, rundir as pipeline
 
     return any(os.path.isdir(pipeline.networks_dir(run, n)) and checkpoint.checkpoint_steps(pipeline.networks_dir(run, n))
                for n in ("stage2", "stage3"))
@@ -195,7 +195,7 @@ def main(argv=None) -> int:
             compare[label if label not in compare else f"{label} ({path})"] = rep_
         if args.plot:
             cli.check_writable_file(args.plot, "--plot")
-            from vags_jax import report_files
+            from vags_jax.benchmark import reports as report_files
 
             report_files.check_plot_available()
         if args.record:
@@ -222,16 +222,16 @@ def main(argv=None) -> int:
             overrides["benchmark.speed"] = args.speed
         ggcnn_cfg = None
         if args.run:
-            from vags_jax import checkpoint
+            from vags_jax.stages import checkpoint
 
             if policy == "vags":  # no stage 2/3 networks, no GG-CNN, damaged files
-                from vags_jax import pipeline
+                from vags_jax.stages import rundir as pipeline
 
                 networks = pipeline.load_vags(args.run, step=args.step)
                 if networks.ggcnn is not None:
                     ggcnn_cfg = checkpoint.load_config(os.path.join(args.run, "ggcnn"))
             if policy in ("ggcnn", "ggcnn-close"):  # no GG-CNN in the run, damaged files
-                from vags_jax.ggcnn_stage import ggcnn_dir, load_ggcnn
+                from vags_jax.stages.ggcnn import ggcnn_dir, load_ggcnn
 
                 ggcnn_params, _ = load_ggcnn(args.run)
                 ggcnn_cfg = checkpoint.load_config(ggcnn_dir(args.run))
@@ -256,7 +256,7 @@ def main(argv=None) -> int:
             scene_over.update({"scene.shapes": C.object_pool(args.objects, run_cfg.scene.pool_size),
                                "scene.copies_per_shape": 1})
         cfg = C.replace(run_cfg, **scene_over, **overrides)
-        from vags_jax import scene
+        from vags_jax.sim import scene
 
         scene.build_spec(cfg)  # the scene's own checks (shape names), in milliseconds
         if policy in ("gdnet", "vags") and (cfg.net != run_cfg.net or cfg.workspace != run_cfg.workspace):
@@ -275,7 +275,7 @@ def main(argv=None) -> int:
         if args.record and args.record_rounds > rounds:
             raise ValueError(f"--record-rounds {args.record_rounds} exceeds the {rounds} rounds per group")
         # ... then the rest, which needs the simulator's modules (still nothing compiled).
-        from vags_jax import evaluate as E
+        from vags_jax.benchmark import protocol as E
 
         if policy not in E.POLICIES:
             raise ValueError(f"unknown policy {policy!r}; choose one of {', '.join(E.POLICIES)}")
@@ -302,7 +302,7 @@ def main(argv=None) -> int:
 
     import numpy as np
 
-    from vags_jax import report_files
+    from vags_jax.benchmark import reports as report_files
 
     log = lambda s: print(s, file=sys.stderr, flush=True)  # noqa: E731
     threshold = -math.inf if args.no_viewpoint else args.threshold
@@ -341,7 +341,7 @@ def main(argv=None) -> int:
         report_files.plot_by_objects({name: report, **compare}, args.plot)
         log(f"wrote {args.plot}")
     if args.record:
-        from vags_jax.record_rounds import record_rounds
+        from vags_jax.benchmark.record_rounds import record_rounds
 
         record_rounds(cfg, ev, pol.params, report["seed"], groups, args.record_rounds, rounds, args.record, log)
     return 0
@@ -355,7 +355,7 @@ def run_sweep(cfg, ev, pol, report, sweep_abs, sweep_q, groups, rounds, seed, ti
     import jax.numpy as jnp
     import numpy as np
 
-    from vags_jax import evaluate as E
+    from vags_jax.benchmark import protocol as E
 
     scores = np.concatenate([np.asarray(o["scores"], np.float64).ravel() for o in report["outcomes"].values()])
     scores = scores[np.isfinite(scores)]
@@ -378,7 +378,7 @@ def run_sweep(cfg, ev, pol, report, sweep_abs, sweep_q, groups, rounds, seed, ti
 
 def format_sweep(rows: list[dict]) -> str:
     """Markdown table of a threshold sweep."""
-    from vags_jax import evaluate as E
+    from vags_jax.benchmark import protocol as E
 
     out = ["| sweep | quantile | threshold | grasp success % | clearing % | motion number | viewpoint % | picks/hour |",
            "|---|---:|---:|---:|---:|---:|---:|---:|"]

@@ -99,7 +99,7 @@ def check_fresh_out(out: str) -> None:
     (left by a run that failed before its first checkpoint: it is reused)."""
     _check_out_path(out)
     if os.path.isdir(out):
-        from vags_jax import checkpoint
+        from vags_jax.stages import checkpoint
 
         steps = checkpoint.checkpoint_steps(out)
         if steps:
@@ -114,7 +114,7 @@ def check_ggcnn_out(out: str) -> None:
     are left alone) that holds no GG-CNN checkpoint yet."""
     _check_out_path(out)
     if os.path.isdir(out):
-        from vags_jax import checkpoint, ggcnn_stage
+        from vags_jax.stages import checkpoint, ggcnn as ggcnn_stage
 
         gdir = ggcnn_stage.ggcnn_dir(out)
         if os.path.exists(gdir) and not os.path.isdir(gdir):
@@ -147,7 +147,7 @@ def prepare_ggcnn(args) -> SimpleNamespace:
 
 def check_ggcnn_config(cfg) -> None:
     """The scene's own checks and GG-CNN's crop against the camera image."""
-    from vags_jax import scene
+    from vags_jax.sim import scene
 
     scene.build_spec(cfg)
     cam, crop = cfg.camera, cfg.ggcnn.crop_size
@@ -158,7 +158,7 @@ def check_ggcnn_config(cfg) -> None:
 
 def check_data_dir(data_dir) -> str:
     """--data-dir (default: GG-CNN's cache directory), checked writable -> the path."""
-    from vags_jax import ggcnn_data
+    from vags_jax.ggcnn import data as ggcnn_data
 
     data_dir = data_dir if data_dir is not None else ggcnn_data.default_data_dir()
     if not data_dir:
@@ -192,7 +192,8 @@ def train_ggcnn_into(cfg, out: str, data_dir: str, quiet: bool, chunk=None):
 
     import jax
 
-    from vags_jax import ggcnn_data, ggcnn_stage
+    from vags_jax.ggcnn import data as ggcnn_data
+    from vags_jax.stages import ggcnn as ggcnn_stage
 
     try:
         maker = ggcnn_data.DataMaker.shared(cfg)  # e.g. an unknown shape name in scene.shapes
@@ -236,12 +237,12 @@ def prepare(args) -> SimpleNamespace:
     if not args.resume:
         check_fresh_out(args.out)
         cfg = C.replace(C.preset(args.config or "tiny"), **overrides)
-        from vags_jax import scene
+        from vags_jax.sim import scene
 
         scene.build_spec(cfg)  # the scene's own checks (shape names), in milliseconds
         return SimpleNamespace(cfg=cfg, step=0, arrays=None, done=None, raised_from=None)
 
-    from vags_jax import checkpoint
+    from vags_jax.stages import checkpoint
 
     if args.config is not None:
         raise ValueError("--resume takes the run's own config.json; drop --config")
@@ -279,7 +280,7 @@ def prepare(args) -> SimpleNamespace:
 def read_stage1_checkpoint(out: str, cfg, step: int) -> dict:
     """Stage 1's checkpoint ``step`` read into host memory and checked against the config
     (before anything is compiled) -> its arrays for ``checkpoint.fit``."""
-    from vags_jax import checkpoint, stages
+    from vags_jax.stages import checkpoint, stage1 as stages
 
     arrays, step = checkpoint.read(out, step)
     checkpoint.check_layout(out, step, arrays, stages.checkpoint_layout(cfg))
@@ -293,7 +294,7 @@ def read_stage1_checkpoint(out: str, cfg, step: int) -> dict:
 
 def check_not_built_on(out: str, name: str) -> None:
     """A stage's iterations may change only while no later stage has started from its end."""
-    from vags_jax import pipeline
+    from vags_jax.stages import rundir as pipeline
 
     later = pipeline.ORDER[pipeline.ORDER.index(name) + 1:]
     started = [n for n in later if n != "ggcnn" and pipeline.progress(out, n) > 0]
@@ -368,7 +369,7 @@ def run_chunks(name: str, stage, state, start_it: int, total: int, out_dir: str,
     import jax
     import numpy as np
 
-    from vags_jax import checkpoint
+    from vags_jax.stages import checkpoint
 
     metrics_path = os.path.join(out_dir, "metrics.jsonl")
     _trim_metrics(metrics_path, start_it)
@@ -471,7 +472,7 @@ def end_of_segment(args, name: str, start_it: int, it: int, t0: float, status: s
 
 def main(argv=None) -> int:
     args = parse_args(argv)  # bad flags: one line, exit code 2
-    from vags_jax import pipeline
+    from vags_jax.stages import rundir as pipeline
 
     stage = pipeline.canonical(args.stage) if args.stage else None
     if stage == "ggcnn":
@@ -495,7 +496,7 @@ def main_stage1(args) -> int:
         return 0
     cfg = plan.cfg
 
-    from vags_jax import checkpoint
+    from vags_jax.stages import checkpoint
 
     if not args.resume:  # a run directory with no checkpoint (a failed start) is reused: clear what it left
         leftover = os.path.join(args.out, checkpoint.CHECKPOINT_DIR)
@@ -516,7 +517,7 @@ def run_stage1(cfg, args, plan, deadline, env=None):
     stage1.iterations -> summary dict, or an exit code."""
     import jax
 
-    from vags_jax import checkpoint, pipeline, stages
+    from vags_jax.stages import checkpoint, rundir as pipeline, stage1 as stages
 
     t0 = time.time()
     try:
@@ -558,7 +559,7 @@ def run_stage1(cfg, args, plan, deadline, env=None):
 def prepare_pipeline(args, only):
     """The whole pipeline (``only`` None) or stage 2 / 3 alone: config, --out, and what is left
     to train, checked before anything is built.  Raises ValueError with what to fix."""
-    from vags_jax import checkpoint, pipeline
+    from vags_jax.stages import checkpoint, rundir as pipeline
     from vags_jax import config as C
 
     overrides = C.parse_overrides(args.set)
@@ -631,7 +632,7 @@ def run_vags_stage(cfg, args, name: str, deadline, env=None):
     trained to stageN.iterations -> summary dict, or an exit code."""
     import jax
 
-    from vags_jax import checkpoint, pipeline, vags_stages
+    from vags_jax.stages import checkpoint, rundir as pipeline, stage23 as vags_stages
 
     t0 = time.time()
     which = int(name[-1])
@@ -674,7 +675,7 @@ def main_pipeline(args, only) -> int:
     except ValueError as e:
         return cli.fail(PROG, e)
     cfg = plan.cfg
-    from vags_jax import checkpoint, pipeline
+    from vags_jax.stages import checkpoint, rundir as pipeline
 
     if plan.fresh:  # a run directory with no checkpoint (a failed start) is reused: clear what it left
         for name in ("checkpoints", "stage2", "stage3", "timings.jsonl", "metrics.jsonl"):

@@ -7,7 +7,7 @@
 For each object set (``train``: the default scenes; ``unseen``: the held-out shapes; ``legacy``:
 the first benchmark's fixed blocks on its scenes, see ``config.LEGACY_SCENES``) and policy
 (``random``, ``highest``, ``heuristic``, and ``gdnet`` with ``--run``), runs the benchmark
-(``vags_jax.evaluate``: groups of k objects, R rounds each, the same seeds for every policy),
+(``vags_jax.benchmark.protocol``: groups of k objects, R rounds each, the same seeds for every policy),
 prints each table and then one summary row per (objects, policy): grasp success over all
 groups, success, clearing and motion number at the largest group.  Writes every report as JSON
 into ``--out-dir`` (``<objects>_<policy>.json``) and the summary as ``summary.json``.
@@ -38,7 +38,9 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
 
     from eval import parse_groups
-    from vags_jax import checkpoint, config as C, evaluate as E
+    from vags_jax.stages import checkpoint
+    from vags_jax import config as C
+    from vags_jax.benchmark import protocol as E
 
     try:
         policies = [x.strip() for x in args.policies.split(",") if x.strip()]

@@ -11,7 +11,7 @@ For each (impl, worlds) it times, after a warm-up call that compiles:
                 heightmaps of the result -- the figure the foundation issue asks for;
   * grasp     : grasp + re-render + heightmaps only (a training step between resets).
   * loop      : the steady state of a training loop (``--loop K`` iterations in one jitted scan,
-                as ``vags_jax.stages`` runs them): every iteration, each world whose round is
+                as ``vags_jax.stages.stage1`` runs them): every iteration, each world whose round is
                 over starts a new scene (``VagsEnv.step_grasp_or_reset``; it settles while the
                 other worlds grasp), every other world grasps with the scripted heuristic
                 (highest object, narrowest closing axis), then every world is rendered once.
@@ -37,7 +37,7 @@ import numpy as np
 from timing import parse_variant, timed
 from vags_jax import config as C
 from vags_jax.env import VagsEnv
-from vags_jax.evaluate import min_width_grasp
+from vags_jax.benchmark.protocol import min_width_grasp
 
 
 def bench_one(cfg, n_worlds, n_objects, repeats, loop_iterations=0, only_loop=False):

@@ -25,9 +25,9 @@ import jax.numpy as jnp  # noqa: E402
 import numpy as np  # noqa: E402
 
 from vags_jax.config import GGCNNConfig  # noqa: E402
-from vags_jax.ggcnn_labels import GraspCandidates, label_maps  # noqa: E402
-from vags_jax.ggcnn_train import augment_batch, ggcnn_loss, init_train_state, make_optimizer, train_step  # noqa: E402
-from vags_jax.networks.ggcnn import GGCNN  # noqa: E402
+from vags_jax.ggcnn.labels import GraspCandidates, label_maps  # noqa: E402
+from vags_jax.ggcnn.train import augment_batch, ggcnn_loss, init_train_state, make_optimizer, train_step  # noqa: E402
+from vags_jax.nets.ggcnn import GGCNN  # noqa: E402
 
 
 def timed(fn, args, steps):

@@ -35,7 +35,7 @@ import numpy as np
 
 from timing import emit_row, timed
 from vags_jax import config as C
-from vags_jax import heightmap, render
+from vags_jax.perception import heightmap, render
 from vags_jax.env import VagsEnv
 
 

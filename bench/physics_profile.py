@@ -34,8 +34,8 @@ from mujoco import mjx
 
 from timing import emit_row, parse_variant, timed
 from vags_jax import config as C
-from vags_jax.scene import build_scene
-from vags_jax.sim import Simulator
+from vags_jax.sim.scene import build_scene
+from vags_jax.sim.simulator import Simulator
 
 DEFAULT_VARIANTS = [
     "default:",

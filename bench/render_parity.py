@@ -118,7 +118,7 @@ def measure(cfg, worlds: int, objects: int) -> dict:
     import jax.numpy as jnp
     import numpy as np
 
-    from vags_jax import heightmap, render
+    from vags_jax.perception import heightmap, render
     from vags_jax.env import VagsEnv
 
     env = VagsEnv(cfg)

@@ -25,8 +25,8 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 from grasp_scenarios import scenarios, tiny_config  # noqa: E402
 from timing import emit_row, parse_variant  # noqa: E402
 from vags_jax import config as C  # noqa: E402
-from vags_jax.scene import build_scene  # noqa: E402
-from vags_jax.sim import Simulator  # noqa: E402
+from vags_jax.sim.scene import build_scene  # noqa: E402
+from vags_jax.sim.simulator import Simulator  # noqa: E402
 
 
 def run_variant(impl: str, n_worlds: int, overrides: list[str], seed: int) -> dict:

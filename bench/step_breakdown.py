@@ -34,8 +34,8 @@ import numpy as np
 
 from timing import emit_row, parse_variant
 from vags_jax import config as C
-from vags_jax.scene import build_scene
-from vags_jax.sim import Simulator
+from vags_jax.sim.scene import build_scene
+from vags_jax.sim.simulator import Simulator
 
 
 def _flatten(trace: dict, prefix: str = "", depth: int = 0, out=None):

@@ -10,7 +10,7 @@ each state the physics is branched (the simulator is pure: each branch starts fr
 ``SimState``) and these grasps are executed, each in its own copy:
 
 * ``direct``: GDNet's argmax on the global view (what VAGS does when it does not move);
-* ``oracle``: GDNet's argmax on the ground-truth top-down maps (``vags_jax.topdown``): the
+* ``oracle``: GDNet's argmax on the ground-truth top-down maps (``vags_jax.perception.topdown``): the
   most any viewpoint policy could show GDNet;
 * ``view_gdnet``: the camera moves to VANet's argmax viewpoint, GDNet grasps on the global
   maps fused with the close view (``vags.local_planner="gdnet"``);
@@ -66,10 +66,10 @@ def make_step(cfg, env, has_ggcnn: bool):
     import jax
     import jax.numpy as jnp
 
-    from vags_jax import exploration
+    from vags_jax.rl import exploration
     from vags_jax.config import replace
-    from vags_jax.decision import VagsNets, close_view_grasp, decide, gate_threshold, greedy, value_at
-    from vags_jax.topdown import TopDown
+    from vags_jax.policies.decision import VagsNets, close_view_grasp, decide, gate_threshold, greedy, value_at
+    from vags_jax.perception.topdown import TopDown
 
     nets, oracle = VagsNets(cfg), TopDown(env)
     cfg_gd = replace(cfg, **{"vags.local_planner": "gdnet"})
@@ -162,7 +162,7 @@ def main(argv=None) -> int:
     import jax
     import numpy as np
 
-    from vags_jax import checkpoint, pipeline
+    from vags_jax.stages import checkpoint, rundir as pipeline
     from vags_jax import config as C
     from vags_jax.env import VagsEnv
 

@@ -24,7 +24,9 @@ import pytest
 
 import eval as eval_cli
 import train
-from vags_jax import camera, checkpoint, config as C, heightmap, stages
+from vags_jax.perception import camera, heightmap
+from vags_jax.stages import checkpoint, stage1 as stages
+from vags_jax import config as C
 from vags_jax.config import Workspace
 
 from conftest import TINY_TEST_OVERRIDES
@@ -77,7 +79,7 @@ def _cli(main, argv, capsys):
 # ----------------------------------------------------------------------------- --set values
 
 SET_CASES = [
-    # types (checked from the annotations, vags_jax/validation.py)
+    # types (checked from the annotations, vags_jax/config/validation.py)
     ("exploration.daes=maybe", r"exploration\.daes must be true or false, got 'maybe'"),
     ("exploration.daes=1", r"exploration\.daes must be true or false, got 1 \(int\)"),
     ("camera.noise.enabled=yes", r"camera\.noise\.enabled must be true or false"),

@@ -3,7 +3,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from vags_jax import camera
+from vags_jax.perception import camera
 from vags_jax.config import Camera, Workspace, tiny
 
 CAM = Camera()

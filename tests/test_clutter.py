@@ -6,9 +6,10 @@ import mujoco
 import numpy as np
 import pytest
 
-from vags_jax import camera, config as C, render
+from vags_jax.perception import camera, render
+from vags_jax import config as C
 from vags_jax.config import DepthNoise, OBJECT_SETS, object_pool, replace
-from vags_jax.scene import KIND_BOX, KIND_CAPSULE, KIND_SPHERE, SHAPES, build_scene, size_ranges, sized_body_physics
+from vags_jax.sim.scene import KIND_BOX, KIND_CAPSULE, KIND_SPHERE, SHAPES, build_scene, size_ranges, sized_body_physics
 
 PILE_WORLDS = 12
 

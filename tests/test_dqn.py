@@ -6,7 +6,7 @@ import numpy as np
 import optax
 import pytest
 
-from vags_jax import dqn, replay
+from vags_jax.rl import dqn, replay
 from vags_jax.config import DQN
 
 R, H, W = 4, 8, 8

@@ -77,7 +77,7 @@ def test_where_worlds_keeps_shared_leaves():
 def test_observe_matches_colouring_the_whole_image(tiny_cfg, env, state):
     """observe colours only each cell's source pixel; the result is that of colouring the
     whole image (`render.render_full`) and taking the heightmaps of it."""
-    from vags_jax import heightmap, render
+    from vags_jax.perception import heightmap, render
 
     cfg = env.cfg
     sim = state.sim

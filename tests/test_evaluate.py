@@ -1,4 +1,4 @@
-"""Benchmark protocol (vags_jax.evaluate, eval.py): metrics by hand, bad inputs, one tiny run."""
+"""Benchmark protocol (vags_jax.benchmark.protocol, eval.py): metrics by hand, bad inputs, one tiny run."""
 import json
 import jax
 import jax.numpy as jnp
@@ -6,10 +6,13 @@ import numpy as np
 import pytest
 
 import eval as eval_cli
-from vags_jax import checkpoint, config as C, dqn, evaluate as E, replay
+from vags_jax.stages import checkpoint
+from vags_jax import config as C
+from vags_jax.rl import dqn, replay
+from vags_jax.benchmark import protocol as E
 from vags_jax.env import EnvState
-from vags_jax.networks import init_qnet, make_qnet
-from vags_jax.stages import Stage1State
+from vags_jax.nets import init_qnet, make_qnet
+from vags_jax.stages.stage1 import Stage1State
 
 
 def _outcomes(**kw):

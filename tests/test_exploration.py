@@ -3,7 +3,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from vags_jax import exploration
+from vags_jax.rl import exploration
 from vags_jax.config import Exploration
 
 B, R, H, W = 512, 4, 8, 8

@@ -16,10 +16,10 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from vags_jax import camera as cam_lib
+from vags_jax.perception import camera as cam_lib
 from vags_jax.config import Camera
-from vags_jax.ggcnn_labels import GraspCandidates, label_maps
-from vags_jax.ggcnn_process import (
+from vags_jax.ggcnn.labels import GraspCandidates, label_maps
+from vags_jax.ggcnn.process import (
     best_grasp,
     crop_resize,
     gaussian_blur,
@@ -29,7 +29,7 @@ from vags_jax.ggcnn_process import (
     preprocess_depth,
     sample_depth,
 )
-from vags_jax.ggcnn_train import (
+from vags_jax.ggcnn.train import (
     augment_batch,
     augment_sample,
     ggcnn_loss,
@@ -37,7 +37,7 @@ from vags_jax.ggcnn_train import (
     make_train_step,
     sample_augmentation,
 )
-from vags_jax.networks import GGCNN, GGCNNConfig, GraspMaps, count_params, init_ggcnn
+from vags_jax.nets import GGCNN, GGCNNConfig, GraspMaps, count_params, init_ggcnn
 
 SMALL = 24  # network resolution for the tests that run it (a multiple of 12)
 
@@ -185,7 +185,7 @@ def test_success_ratio_labels_count_failures():
     assert pixel_set(np.asarray(maps.width) > 0) == a
     np.testing.assert_allclose(np.asarray(maps.cos)[4:7, 3:6], 1.0)
     # Loss weight: 1 on every tried pixel (successes and failures), untried_weight elsewhere.
-    from vags_jax.ggcnn_labels import labels_and_weight
+    from vags_jax.ggcnn.labels import labels_and_weight
 
     _, weight = labels_and_weight(c, h, w, untried_weight=0.25)
     wt = np.asarray(weight)
@@ -366,7 +366,7 @@ def test_label_peak_keeps_its_own_angle():
 
 
 def test_grasp_never_in_a_depth_hole():
-    from vags_jax.ggcnn_grasp import predict_grasp
+    from vags_jax.ggcnn.planner import predict_grasp
 
     # A 12 x 12 camera at 0.5 m, the network at 12 x 12 (crop 12, scale 1: pixels map 1:1).
     # Pixel (3, 4) is a hole (depth 0, inpainted to 0.5 m); the maps' best quality sits there.
@@ -571,7 +571,7 @@ def test_adam_steps_reduce_loss(model, batch):
 def test_subpixel_transposed_conv_equals_flax_conv_transpose(k, s, p):
     """GG-CNN's three transposed convolutions, phase by phase, against lax.conv_transpose on the
     dilated input (what flax's nn.ConvTranspose computes), on a non-square input."""
-    from vags_jax.networks.ggcnn import conv_transpose_subpixel
+    from vags_jax.nets.ggcnn import conv_transpose_subpixel
 
     pad = (k - 1 - p, k - 1 - p + 1)
     x = jax.random.normal(jax.random.PRNGKey(0), (2, 7, 9, 3))

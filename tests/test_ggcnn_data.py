@@ -18,8 +18,10 @@ import numpy as np
 import pytest
 
 import train
-from vags_jax import checkpoint, config as C, ggcnn_data, ggcnn_stage
-from vags_jax.networks.ggcnn import init_ggcnn
+from vags_jax.stages import checkpoint, ggcnn as ggcnn_stage
+from vags_jax import config as C
+from vags_jax.ggcnn import data as ggcnn_data
+from vags_jax.nets.ggcnn import init_ggcnn
 
 OVERRIDES = {
     "ggcnn_data.views": 4,
@@ -250,7 +252,7 @@ def test_load_ggcnn_errors(tmp_path):
 
 
 def test_ggcnn_reuse_checks_the_label_rule(tmp_path):
-    from vags_jax import pipeline
+    from vags_jax.stages import rundir as pipeline
 
     cfg = C.replace(C.tiny(), **{"ggcnn.labels": "success_ratio"})
     run = str(tmp_path / "run")

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import render_scenes as rs
-from vags_jax import camera, heightmap, render
+from vags_jax.perception import camera, heightmap, render
 from vags_jax.config import Workspace
 
 WS = Workspace()  # full 224 x 224 at 2 mm

@@ -1,4 +1,4 @@
-"""Tests for vags_jax.networks: rotations, trunks, GDNet / VANet, pretrained loading.
+"""Tests for vags_jax.nets: rotations, trunks, GDNet / VANet, pretrained loading.
 
 Kept fast for a 2-core CPU: tiny heightmaps, the small trunk almost everywhere, and DenseNet-121
 compiled once at 64 x 32 (batch 1) in a module-scoped fixture; the loader tests only trace it.
@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from vags_jax.config import Net
-from vags_jax.networks import (
+from vags_jax.nets import (
     DenseNet121,
     count_params,
     densenet121_key_map,
@@ -33,7 +33,7 @@ from vags_jax.networks import (
     to_torchvision_state_dict,
     unrotate,
 )
-from vags_jax.networks import small as small_mod
+from vags_jax.nets import small as small_mod
 
 HM = 32  # heightmap side for the tests
 B = 2

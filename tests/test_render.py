@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import render_scenes as rs
-from vags_jax import camera, render
+from vags_jax.perception import camera, render
 from vags_jax.config import DepthNoise, Workspace
 
 CAM = rs.small_camera(0.1)  # 64 x 48, same field of view as 640 x 480

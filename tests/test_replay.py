@@ -4,7 +4,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from vags_jax import replay
+from vags_jax.rl import replay
 
 
 def _scalar_buffer(capacity):

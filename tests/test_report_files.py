@@ -10,9 +10,9 @@ import zlib
 import numpy as np
 import pytest
 
-from vags_jax import record, report_files
-from vags_jax.record import FAILURE_RGB, SUCCESS_RGB, AttemptRecord, attempt_picture, write_round
-from vags_jax.report_files import SUMMARY_KEYS, SWEEP_COLUMNS, MissingPlotExtra
+from vags_jax.benchmark import record, reports as report_files
+from vags_jax.benchmark.record import FAILURE_RGB, SUCCESS_RGB, AttemptRecord, attempt_picture, write_round
+from vags_jax.benchmark.reports import SUMMARY_KEYS, SWEEP_COLUMNS, MissingPlotExtra
 
 
 def _metrics(attempts, successes, cleared, rounds=2, viewpoints=0):

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from vags_jax.config import Config, replace
-from vags_jax.scene import PALETTE, SHAPES, build_scene
+from vags_jax.sim.scene import PALETTE, SHAPES, build_scene
 
 VPG_SIZES = {  # name -> bounding box (m) of VPG's blocks (docs/baselines.md)
     "cuboid_long": (0.10, 0.05, 0.05),
@@ -143,7 +143,7 @@ def test_mjx_contact_budget_is_scene_sized(scene):
     from mujoco import mjx
 
     from vags_jax.config import object_pool
-    from vags_jax.scene import contacts_per_world, rows_per_contact
+    from vags_jax.sim.scene import contacts_per_world, rows_per_contact
 
     C_legacy = object_pool("legacy", 10)
 

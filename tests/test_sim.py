@@ -10,8 +10,8 @@ import jax
 import jax.numpy as jnp
 
 from vags_jax.config import Config, replace
-from vags_jax.scene import FINGER_CLOSED_TARGET, build_scene
-from vags_jax.sim import GraspResult, SimState, Simulator, check_overflow
+from vags_jax.sim.scene import FINGER_CLOSED_TARGET, build_scene
+from vags_jax.sim.simulator import GraspResult, SimState, Simulator, check_overflow
 
 from grasp_scenarios import CUBE, LONG, scenarios, tiny_config
 

@@ -12,10 +12,11 @@ import pytest
 
 import eval as eval_cli
 import train
-from vags_jax import checkpoint, ggcnn_stage, pipeline, replay, vags_stages
+from vags_jax.stages import checkpoint, ggcnn as ggcnn_stage, rundir as pipeline, stage23 as vags_stages
+from vags_jax.rl import replay
 from vags_jax import config as C
-from vags_jax.networks.ggcnn import init_ggcnn
-from vags_jax.stages import METRICS, Stage1
+from vags_jax.nets.ggcnn import init_ggcnn
+from vags_jax.stages.stage1 import METRICS, Stage1
 
 from conftest import TINY_TEST_OVERRIDES
 

@@ -1,4 +1,4 @@
-"""Close views fused into the global heightmaps (``vags_jax.view_fusion``), on hand-made frames.
+"""Close views fused into the global heightmaps (``vags_jax.perception.view_fusion``), on hand-made frames.
 
 A straight-down camera 25 cm above the table looks at a flat table with a 5 cm tall square
 block under its centre; the global heightmap that it is fused into has a hole (0) where the
@@ -8,7 +8,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from vags_jax import camera, view_fusion
+from vags_jax.perception import camera, view_fusion
 from vags_jax import config as C
 
 CAM = C.Camera(width=64, height=48, fx=40.0, fy=40.0, near=0.05, far=2.0)

@@ -9,10 +9,10 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from vags_jax import camera
+from vags_jax.perception import camera
 from vags_jax import config as C
 from vags_jax.env import EnvState, VagsEnv, select_attempt
-from vags_jax.networks.ggcnn import init_ggcnn
+from vags_jax.nets.ggcnn import init_ggcnn
 
 TALL, FLAT = 0, 1
 
@@ -84,10 +84,10 @@ def test_close_view_sees_the_top_that_the_global_view_leaves_in_shadow(cfg, env)
 
 
 def test_topdown_oracle_sees_the_shadowed_top(cfg, env):
-    """The ground-truth top-down maps (``vags_jax.topdown``) show both tops at their true
+    """The ground-truth top-down maps (``vags_jax.perception.topdown``) show both tops at their true
     heights, the flat block's included, which the global view leaves in the tall one's shadow,
     and the bare table at 0."""
-    from vags_jax.topdown import TopDown
+    from vags_jax.perception.topdown import TopDown
 
     state = _scene(env, [[[0.0, 0.0, 0.05], [0.0, 0.06, 0.0125]]], [[True, True]])
     color, height = jax.jit(TopDown(env).maps)(state.sim)
@@ -138,8 +138,8 @@ def test_viewpoint_attempt_counts_two_motions_and_starts_its_approach_at_the_vie
 def test_ggcnn_close_policy_counts_a_viewpoint_per_attempt(cfg):
     """The benchmark loop with ``ggcnn-close`` (an untrained GG-CNN: the mechanics, not the
     skill): every attempt moves the camera, so motions = 2 x attempts and viewpoint share 1."""
-    from vags_jax import evaluate as E
-    from vags_jax.networks.ggcnn import init_ggcnn
+    from vags_jax.benchmark import protocol as E
+    from vags_jax.nets.ggcnn import init_ggcnn
 
     ecfg = C.replace(cfg, **{"benchmark.max_attempts_extra": 1})
     params = init_ggcnn(jax.random.PRNGKey(3), size=ecfg.ggcnn.input_size)
@@ -157,7 +157,7 @@ def test_ggcnn_close_policy_counts_a_viewpoint_per_attempt(cfg):
 
 
 def test_ggcnn_policies_need_parameters(cfg):
-    from vags_jax import evaluate as E
+    from vags_jax.benchmark import protocol as E
 
     for name in ("ggcnn", "ggcnn-close"):
         with pytest.raises(ValueError, match="needs trained GG-CNN parameters"):
@@ -165,8 +165,8 @@ def test_ggcnn_policies_need_parameters(cfg):
 
 
 def test_ggcnn_grasp_refuses_a_wrong_depth_shape(cfg):
-    from vags_jax.ggcnn_grasp import predict_grasp
-    from vags_jax.networks.ggcnn import GGCNN, init_ggcnn
+    from vags_jax.ggcnn.planner import predict_grasp
+    from vags_jax.nets.ggcnn import GGCNN, init_ggcnn
 
     params = init_ggcnn(jax.random.PRNGKey(0), size=cfg.ggcnn.input_size)
     pose = jnp.eye(4)[None]
@@ -176,7 +176,7 @@ def test_ggcnn_grasp_refuses_a_wrong_depth_shape(cfg):
 
 
 def test_decision_picks_each_branch_on_hand_set_q_maps():
-    from vags_jax.decision import decide
+    from vags_jax.policies.decision import decide
 
     B, R, H, W = 3, 4, 6, 5
     qg = np.zeros((B, R, H, W), np.float32)
@@ -203,7 +203,7 @@ def test_decision_plans_one_or_two_motions(cfg, env, planner):
     global pose (1 motion); the other moves above VANet's pixel first (2 motions) and its
     approach starts there.  With the "gdnet" close-view planner the grasp after the move is
     GDNet's argmax among the cells the close view saw, at the fused map's height."""
-    from vags_jax.decision import Decision, plan_attempt
+    from vags_jax.policies.decision import Decision, plan_attempt
 
     pcfg = C.replace(cfg, **{"vags.local_planner": planner})
     xy = np.array([[0.08, -0.05], [-0.06, 0.07]], np.float32)
@@ -248,7 +248,7 @@ def test_success_gate_compares_estimates_on_hand_set_maps():
     """The "success" gate: direct where the success net's estimate at GDNet's argmax minus
     VANet's largest estimate exceeds -move_cost; the success net is read at GDNet's argmax,
     not at its own."""
-    from vags_jax.decision import decide, gate_threshold
+    from vags_jax.policies.decision import decide, gate_threshold
 
     B, R, H, W = 3, 2, 4, 4
     qg = np.zeros((B, R, H, W), np.float32)
@@ -272,7 +272,7 @@ def test_success_gate_compares_estimates_on_hand_set_maps():
 def test_success_gate_subtracts_each_estimates_running_bias():
     """Calibration [direct, view] = each estimate's bias (estimate - outcome): an over-estimating
     VANet (bias 0.3) no longer wins a move it would win uncalibrated."""
-    from vags_jax.decision import decide, gate_score
+    from vags_jax.policies.decision import decide, gate_score
 
     p_direct, p_view = jnp.array([0.7, 0.2]), jnp.array([1.1, 0.6])
     cal = jnp.array([-0.1, 0.3])  # the success net under-estimates by 0.1, VANet over-estimates by 0.3
@@ -289,7 +289,7 @@ def test_success_gate_subtracts_each_estimates_running_bias():
 
 
 def test_calibration_tracks_estimate_minus_outcome_of_greedy_attempts():
-    from vags_jax.decision import update_calibration
+    from vags_jax.policies.decision import update_calibration
 
     p_direct = jnp.array([0.9, 0.8, 0.5, 0.4])
     p_view = jnp.array([1.2, 1.0, 0.7, 0.9])
@@ -309,7 +309,7 @@ def test_view_reward_hand_cases():
     """VANet's reward.  "success": 1 when the grasp after the move succeeds, else 0.  "eq5"
     (reconstructed): 0 on failure whatever the Q values; 1 on success; 2 on success when
     GDNet's largest Q on the next view exceeds the one before the move."""
-    from vags_jax.vags_stages import calibrated_threshold, view_reward
+    from vags_jax.stages.stage23 import calibrated_threshold, view_reward
 
     success = jnp.array([False, False, True, True, True])
     before = jnp.array([1.0, 1.0, 1.5, 1.5, 1.5])

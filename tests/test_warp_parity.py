@@ -10,8 +10,8 @@ import pytest
 
 pytest.importorskip("warp", reason="impl 'warp' needs warp-lang (pip install -e '.[warp]')")
 
-from vags_jax.scene import build_scene  # noqa: E402
-from vags_jax.sim import Simulator, check_overflow  # noqa: E402
+from vags_jax.sim.scene import build_scene  # noqa: E402
+from vags_jax.sim.simulator import Simulator, check_overflow  # noqa: E402
 
 from grasp_scenarios import scenarios, tiny_config  # noqa: E402
 

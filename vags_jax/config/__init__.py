@@ -1,0 +1,22 @@
+"""Configuration: frozen dataclasses for every part of vags_jax, their checks, and the presets.
+
+* ``sections``: one dataclass per concern (``Workspace``, ``Scene``, ``Sim``, ``Grasp``,
+  ``Camera``, ``Net``, ``DQN``, ``Replay``, ``Exploration``, ``Stage``, ``Vags``, GG-CNN's,
+  ``Benchmark``) and the whole ``Config``; the conventions every module shares (frames,
+  heightmap axes, rotations) are stated at its top.
+* ``validation``: type checks driven by the field annotations (``@checked``).
+* ``overrides``: ``replace`` with dotted keys (``--set``), ``to_dict`` / ``from_dict``.
+* ``presets``: ``tiny`` (CPU), ``gpu``, ``gpu-edge``, ``paper``, ``default``.
+
+Everything is re-exported here: ``from vags_jax import config as C; C.replace(C.tiny(), ...)``.
+"""
+from vags_jax.config.overrides import from_dict, parse_overrides, replace, to_dict
+from vags_jax.config.presets import PRESETS, gpu, gpu_edge, paper, preset, tiny
+from vags_jax.config.sections import (MAX_HEIGHTMAP_PX, MAX_IMAGE_SIDE, MAX_WORLDS,
+                                      MAX_DEVICE_BYTES, REPLAY_BYTES_PER_CELL, Workspace,
+                                      OBJECT_SETS, object_pool, PLACEMENTS, EDGE_SCENES,
+                                      LEGACY_SCENES, Scene, Sim, Grasp, DepthNoise, Camera, Net,
+                                      DQN, Replay, Exploration, Stage, VAGS_LOCAL_PLANNERS,
+                                      VAGS_GATES, VAGS_VIEW_REWARDS, Vags, GGCNN_SIZE_MULTIPLE,
+                                      GGCNN_ROTATIONS, GGCNN_LABELS, GGCNNConfig, GGCNNData,
+                                      Benchmark, Config, benchmark_groups, ggcnn_object_range)

@@ -1,0 +1,9 @@
+"""The environment: B simulated worlds observed as heightmaps and grasped in heightmap coordinates.
+
+``environment.VagsEnv`` builds scene, simulator and renderer once; its state is an ``EnvState``
+(physics + the latest global-view heightmaps + round counters); an ``Attempt`` is one planned
+grasp per world (direct, or after a viewpoint move).
+"""
+from vags_jax.env.environment import Attempt, CameraImage, EnvState, VagsEnv, select_attempt, where_worlds
+
+__all__ = ["Attempt", "CameraImage", "EnvState", "VagsEnv", "select_attempt", "where_worlds"]

@@ -1,0 +1,465 @@
+"""The VAGS environment: batched worlds observed as heightmaps, grasped in heightmap coordinates.
+
+``VagsEnv(cfg)`` builds the scene, the simulator and the renderer once.  Its state is an
+``EnvState`` over B worlds holding the physics state, the latest *global-view* heightmaps and the
+round's bookkeeping.  Public methods validate their inputs and are jit-compiled; the methods
+whose names start with ``step_`` / ``observe`` / ``reset_where`` are pure and jittable, for use
+inside a larger jitted loop (``vags_jax.stages.stage1``).
+
+Grasp in heightmap coordinates (``grasp(state, pixel, rotation)``):
+  * ``pixel`` = (row, col) of the global heightmap -> world x, y of the cell centre;
+  * the grasp centre is ``depth_below_surface`` under the surface height at that cell (never
+    below ``table_z + min_height_above_table``, enforced by the simulator);
+  * ``rotation`` r -> closing-axis yaw ``r * pi / (n_rotations / 2)`` (config conventions).
+
+One grasp attempt = the physics of the grasp, then a new global observation (render +
+heightmaps) of every world.  A *round* is one scene: it ends when the table is clear or after
+``2 * objects + max_attempts_extra`` attempts (``round_over``).
+"""
+from __future__ import annotations
+
+from typing import Optional
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from flax import struct
+
+from vags_jax import batching
+from vags_jax.perception import camera, heightmap, render
+from vags_jax.config import Config
+from vags_jax.sim.scene import build_scene
+from vags_jax.sim.simulator import GraspResult, SimState, Simulator, check_overflow
+
+
+@struct.dataclass
+class EnvState:
+    """B worlds.
+
+    sim: physics state (``vags_jax.sim.simulator.SimState``).
+    color: (B, H, W, 3) uint8 colour heightmap of the latest global view.
+    height: (B, H, W) float32 height heightmap (m above the table) of that view.
+    attempts: (B,) int32 grasp attempts in the current round.
+    successes: (B,) int32 successful grasps in the current round.
+    motions: (B,) int32 camera / gripper motions in the current round.
+    travel: (B,) float32 commanded gripper travel (m) in the current round.
+    """
+
+    sim: SimState
+    color: jax.Array
+    height: jax.Array
+    attempts: jax.Array
+    successes: jax.Array
+    motions: jax.Array
+    travel: jax.Array
+
+    @property
+    def n_worlds(self) -> int:
+        return self.height.shape[0]
+
+
+@struct.dataclass
+class CameraImage:
+    """Raw RGB-D images of B worlds: depth (B, h, w) float32 metres along the optical axis (sensor
+    model applied, 0 = missing); rgb (B, h, w, 3) uint8; pose (B, 4, 4) camera-to-world."""
+
+    depth: jax.Array
+    rgb: jax.Array
+    pose: jax.Array
+
+
+@struct.dataclass
+class Attempt:
+    """One planned grasp attempt per world (B worlds).
+
+    position: (B, 3) world grasp point (fingertip centre); yaw: (B,) closing-axis angle (rad);
+    start: (B, 3) hand position where the grasp's approach begins: where the last image was
+    captured (the global pose, or the viewpoint the camera moved to); motions: (B,) int32
+    camera or gripper motions of the attempt (1 = grasp from the global view, 2 = one viewpoint
+    move then the grasp, more for multi-view methods); view_travel: (B,) float32 metres the
+    hand travelled for those camera moves before the grasp.
+    """
+
+    position: jax.Array
+    yaw: jax.Array
+    start: jax.Array
+    motions: jax.Array
+    view_travel: jax.Array
+    # (B,) float32 the planner's decision value (VAGS: GDNet's largest Q on the global view,
+    # which the threshold is compared with), recorded by the benchmark; None for planners
+    # without one.
+    score: Optional[jax.Array] = None
+
+
+def select_attempt(mask: jax.Array, a: Attempt, b: Attempt) -> Attempt:
+    """Per world: attempt ``a`` where mask (B,) is set, else ``b``."""
+    return jax.tree.map(lambda x, y: jnp.where(mask.reshape((-1,) + (1,) * (x.ndim - 1)), x, y), a, b)
+
+
+class VagsEnv:
+    """Scene + simulator + renderer for one config.  Build once, reuse for any batch size."""
+
+    def __init__(self, cfg: Config):
+        self.cfg = cfg
+        self.scene = build_scene(cfg)
+        self.sim = Simulator(cfg, self.scene)
+        self._geometry: dict[int, object] = {}
+        self.global_pose = np.asarray(camera.global_pose(cfg.camera), np.float32)
+        self._reset_jit = jax.jit(self.step_reset)
+        self._grasp_jit = jax.jit(self.step_grasp)
+        self._grasp_world_jit = jax.jit(self.step_grasp_world)
+        self._observe_jit = jax.jit(self.observe)
+
+    # ------------------------------------------------------------------ helpers
+
+    def prepare(self, n_worlds: int) -> None:
+        """Build the render geometry for ``n_worlds`` eagerly (the Warp renderer's context is
+        per batch size).  Call it before tracing a function that uses the ``step_*`` methods
+        (the public methods and ``stages`` do)."""
+        self.geometry(min(n_worlds, self.cfg.camera.render_batch))
+
+    def geometry(self, n_worlds: int):
+        """Static render geometry (the Warp renderer's context is per batch size)."""
+        key = n_worlds if self.cfg.camera.renderer == "warp" else 0
+        if key not in self._geometry:
+            with jax.ensure_compile_time_eval():  # built eagerly even when first asked inside jit
+                self._geometry[key] = render.prepare_geometry(
+                    self.scene.mj_model, self.scene.render_geom_mask, backend=self.cfg.camera.renderer,
+                    cam_cfg=self.cfg.camera, n_worlds=n_worlds,
+                )
+        return self._geometry[key]
+
+    def max_attempts(self, n_objects: jax.Array, extra: Optional[int] = None) -> jax.Array:
+        """(B,) attempts allowed in a round that started with n_objects (B,):
+        ``2 * n_objects + extra`` (default ``stage1.max_attempts_extra``; the benchmark passes
+        ``benchmark.max_attempts_extra``)."""
+        return 2 * n_objects + (self.cfg.stage1.max_attempts_extra if extra is None else extra)
+
+    @staticmethod
+    def n_remaining(state: EnvState) -> jax.Array:
+        """(B,) int32 objects still on the table."""
+        return state.sim.active.sum(axis=1).astype(jnp.int32)
+
+    def round_over(self, state: EnvState, extra: Optional[int] = None) -> jax.Array:
+        """(B,) bool: table clear, or the round's attempt budget (``max_attempts``) is used up."""
+        return (self.n_remaining(state) == 0) | (state.attempts >= self.max_attempts(state.sim.n_objects, extra))
+
+    # ------------------------------------------------------------------ pure, jittable
+
+    def _per_render_batch(self, fn, args: tuple, B: int):
+        """``fn(*args)`` over B worlds in groups of ``camera.render_batch`` (memory stays that of
+        one group; the Warp renderer's context is built for that many worlds).  Every leaf of
+        ``args`` and of the output has the leading world axis B."""
+        return batching.map_in_groups(fn, tuple(args), self.cfg.camera.render_batch)
+
+    def _sensor(self, sim_state: SimState, cam_pose: jax.Array, key: Optional[jax.Array]):
+        """What ``fn(xpos, xmat, rgb, pose, keys, size)`` needs to render B worlds: the render
+        geometry, a function giving ``(sensor depth (b,h,w), clean depth, geom id, cos)`` for a
+        group of worlds, and the per-world argument tuple."""
+        cfg = self.cfg
+        B = sim_state.n_worlds
+        d = sim_state.data
+        if cfg.camera.noise.enabled and key is None:
+            raise ValueError("camera.noise.enabled needs a PRNG key to render a sensor image")
+        keys = jax.random.split(key if key is not None else jax.random.PRNGKey(0), B)
+        geometry = self.geometry(min(B, cfg.camera.render_batch))
+        size = self.sim.geom_size(sim_state)  # (B, ngeom, 3), or None: no size is drawn
+        sized = size is not None
+
+        def sense(xpos, xmat, pose, k, size):
+            clean, gid, cos = render.depth_and_segmentation(geometry, xpos, xmat, pose, cfg.camera,
+                                                            geom_size=size if sized else None)
+            depth = clean
+            if cfg.camera.noise.enabled:
+                if cos is None:
+                    cos = render.normals_from_depth(clean, cfg.camera)
+                depth = jax.vmap(lambda kk, dd, cc: render.add_depth_noise(
+                    kk, dd[None], cc[None], cfg.camera.noise, cfg.camera.fx)[0])(k, depth, cos)
+            return depth, clean, gid, cos
+
+        args = (d.geom_xpos, d.geom_xmat, sim_state.geom_rgb, cam_pose, keys,
+                size if sized else jnp.zeros((B,), jnp.float32))
+        return sense, args
+
+    def observe(self, sim_state: SimState, cam_pose: jax.Array, key: Optional[jax.Array] = None):
+        """Render every world from cam_pose (B, 4, 4) -> (color (B,H,W,3) uint8, height (B,H,W)).
+
+        ``key`` is needed only when the config's depth noise is enabled.
+        """
+        cfg = self.cfg
+        sense, args = self._sensor(sim_state, cam_pose, key)
+
+        def one_batch(xpos, xmat, rgb, pose, k, size):
+            depth, clean, gid, cos = sense(xpos, xmat, pose, k, size)
+            height, source = heightmap.height_and_source(depth, pose, cfg.camera, cfg.workspace)
+            # Colour only where the heightmap uses it, at each cell's source pixel: the same
+            # shading as `render.render_full`, without colouring the whole image first.
+            b = depth.shape[0]
+            pix = jnp.maximum(source.reshape(b, -1), 0)
+            g = jnp.where(source.reshape(b, -1) >= 0, jnp.take_along_axis(gid.reshape(b, -1), pix, axis=1), -1)
+            c = (jnp.take_along_axis(cos.reshape(b, -1), pix, axis=1) if cos is not None
+                 else render.cos_incidence_at(clean, pix, cfg.camera))
+            color = render.shade(g, c, rgb).reshape(height.shape + (3,))
+            return color, height
+
+        return self._per_render_batch(one_batch, args, sim_state.n_worlds)
+
+    def camera_image(self, sim_state: SimState, cam_pose: jax.Array, key: Optional[jax.Array] = None):
+        """The raw RGB-D image of every world from cam_pose (B, 4, 4), as the eye-in-hand
+        camera delivers it -> ``CameraImage`` (depth (B, h, w) float32 metres with the sensor
+        model's noise and holes, 0 = missing; rgb (B, h, w, 3) uint8; pose (B, 4, 4)).
+
+        ``key`` is needed only when the config's depth noise is enabled.
+        """
+        cfg = self.cfg
+        sense, args = self._sensor(sim_state, cam_pose, key)
+
+        def one_batch(xpos, xmat, rgb, pose, k, size):
+            depth, clean, gid, cos = sense(xpos, xmat, pose, k, size)
+            if cos is None:
+                cos = render.normals_from_depth(clean, cfg.camera)
+            b, h, w = depth.shape
+            color = render.shade(gid.reshape(b, -1), cos.reshape(b, -1), rgb).reshape(b, h, w, 3)
+            return depth, color
+
+        depth, rgb = self._per_render_batch(one_batch, args, sim_state.n_worlds)
+        return CameraImage(depth=depth, rgb=rgb, pose=cam_pose)
+
+    def observe_global(self, sim_state: SimState, key: Optional[jax.Array] = None):
+        pose = jnp.broadcast_to(jnp.asarray(self.global_pose), (sim_state.n_worlds, 4, 4))
+        return self.observe(sim_state, pose, key)
+
+    def step_reset(self, key: jax.Array, n_objects: jax.Array, observe: bool = True) -> EnvState:
+        """New rounds in every world: key (2,) raw uint32, n_objects (B,) int32 (unchecked).
+
+        With ``observe=False`` the heightmaps are left at zero (the caller observes later).
+        """
+        k_sim, k_obs = jax.random.split(key)
+        B = n_objects.shape[0]
+        return self.step_reset_worlds(jax.random.split(k_sim, B), n_objects, k_obs, observe)
+
+    def step_reset_worlds(self, keys: jax.Array, n_objects: jax.Array, obs_key: jax.Array,
+                          observe: bool = True) -> EnvState:
+        """``step_reset`` with one scene key per world: keys (B, 2), n_objects (B,) int32,
+        obs_key (2,) the observation's sensor-noise key.  A world's scene depends only on its
+        key, so worlds of different batches can be given the scenes of one ``step_reset``."""
+        B = n_objects.shape[0]
+        k_obs = obs_key
+        sim_state = self.sim.reset_batched(keys, n_objects)
+        H = self.cfg.workspace.heightmap_px
+        if observe:
+            color, height = self.observe_global(sim_state, k_obs)
+        else:
+            color, height = jnp.zeros((B, H, H, 3), jnp.uint8), jnp.zeros((B, H, H), jnp.float32)
+        zi = jnp.zeros((B,), jnp.int32)
+        return EnvState(sim=sim_state, color=color, height=height, attempts=zi, successes=zi,
+                        motions=zi, travel=jnp.zeros((B,), jnp.float32))
+
+    def reset_where(self, key: jax.Array, state: EnvState, mask: jax.Array, n_objects: jax.Array,
+                    observe: bool = True) -> EnvState:
+        """Worlds with mask (B,) set start a new round with n_objects (B,); the rest are kept.
+
+        The reset physics is skipped entirely when no world needs it.  With ``observe=False``
+        the reset worlds' heightmaps are stale until the caller observes.
+        """
+        def do_reset(s):
+            return where_worlds(mask, self.step_reset(key, n_objects, observe), s)
+
+        return jax.lax.cond(mask.any(), do_reset, lambda s: s, state)
+
+    def with_observation(self, state: EnvState, key: Optional[jax.Array] = None) -> EnvState:
+        """state with fresh global-view heightmaps of every world."""
+        color, height = self.observe_global(state.sim, key)
+        return state.replace(color=color, height=height)
+
+    def grasp_pose(self, state: EnvState, pixel: jax.Array, rotation: jax.Array):
+        """Heightmap action -> (position (B, 3), yaw (B,)) in the world frame."""
+        cfg = self.cfg
+        xy = camera.pixel_to_world_xy(pixel, cfg.workspace)
+        b = jnp.arange(state.n_worlds)
+        surface = state.height[b, pixel[:, 0], pixel[:, 1]]
+        z = cfg.workspace.table_z + surface - cfg.grasp.depth_below_surface
+        yaw = rotation.astype(jnp.float32) * cfg.grasp.rotation_step
+        return jnp.concatenate([xy, z[:, None]], axis=1), yaw
+
+    def _start(self, n_worlds: int) -> jax.Array:
+        """(B, 3) hand position before a grasp: where the global view was captured."""
+        return jnp.broadcast_to(jnp.asarray(self.cfg.camera.global_position, jnp.float32), (n_worlds, 3))
+
+    def viewpoint_pose(self, state: EnvState, pixel: jax.Array) -> jax.Array:
+        """(B, 4, 4) camera pose ``camera.viewpoint_height`` above the global heightmap's surface at
+        pixel (B, 2) [row, col], looking straight down (``camera.viewpoint_pose``)."""
+        return camera.viewpoint_pose(pixel, state.height, self.cfg.workspace, self.cfg.camera)
+
+    def global_poses(self, n_worlds: int) -> jax.Array:
+        """(B, 4, 4) the global camera pose for every world."""
+        return jnp.broadcast_to(jnp.asarray(self.global_pose), (n_worlds, 4, 4))
+
+    def direct_attempt(self, position: jax.Array, yaw: jax.Array) -> Attempt:
+        """A grasp planned on the global view: from the global pose, 1 motion."""
+        B = position.shape[0]
+        return Attempt(position=position, yaw=yaw, start=self._start(B), motions=jnp.ones((B,), jnp.int32),
+                       view_travel=jnp.zeros((B,), jnp.float32))
+
+    def viewpoint_attempt(self, position: jax.Array, yaw: jax.Array, view_pose: jax.Array) -> Attempt:
+        """A grasp planned on a close view taken at view_pose (B, 4, 4): the hand first moves
+        from the global pose to the viewpoint (1 motion, its distance counted), captures, then
+        grasps with the approach starting there (the 2nd motion)."""
+        B = position.shape[0]
+        view = view_pose[:, :3, 3]
+        return Attempt(position=position, yaw=yaw, start=view, motions=jnp.full((B,), 2, jnp.int32),
+                       view_travel=jnp.linalg.norm(view - self._start(B), axis=1))
+
+    def _after_grasp(self, state: EnvState, sim_state: SimState, result: GraspResult, key,
+                     motions, observe: bool, grasped: Optional[jax.Array] = None,
+                     view_travel: Optional[jax.Array] = None) -> EnvState:
+        """Round bookkeeping (+1 attempt where ``grasped``, (B,) bool, default all; + ``motions``,
+        an int or (B,) int32; travel + the grasp's + ``view_travel`` (B,)) and the new global
+        view.  Worlds that did not grasp (they were reset) start from zero."""
+        state = state.replace(sim=sim_state)
+        if observe:
+            state = self.with_observation(state, key)
+        g = jnp.ones((state.n_worlds,), bool) if grasped is None else grasped
+        zi = jnp.zeros((state.n_worlds,), jnp.int32)
+        extra = 0.0 if view_travel is None else view_travel
+        return state.replace(
+            attempts=jnp.where(g, state.attempts + 1, zi),
+            successes=jnp.where(g, state.successes + result.success.astype(jnp.int32), zi),
+            motions=jnp.where(g, state.motions + motions, zi),
+            travel=jnp.where(g, state.travel + result.approach + result.descend + result.lift + extra, 0.0),
+        )
+
+    def step_attempt(self, state: EnvState, attempt: Attempt, key: Optional[jax.Array] = None,
+                     observe: bool = True):
+        """Execute one planned attempt per world (each world on its own branch: direct or after
+        a viewpoint move), then (``observe``) re-observe the global view.  Returns
+        (EnvState, GraspResult); ``GraspResult.approach`` runs from ``attempt.start``."""
+        sim_state, result = self.sim.grasp_batched(state.sim, attempt.position, attempt.yaw, attempt.start)
+        state = self._after_grasp(state, sim_state, result, key, attempt.motions, observe,
+                                  view_travel=attempt.view_travel)
+        return state, result
+
+    def step_grasp_world(self, state: EnvState, position: jax.Array, yaw: jax.Array,
+                         key: Optional[jax.Array] = None, motions: int = 1, observe: bool = True):
+        """Grasp at world position (B, 3) / yaw (B,) from the global view, then (``observe``)
+        re-observe it; the attempt counts ``motions``."""
+        attempt = self.direct_attempt(position, yaw)
+        return self.step_attempt(state, attempt.replace(motions=jnp.full_like(attempt.motions, motions)), key, observe)
+
+    def step_grasp(self, state: EnvState, pixel: jax.Array, rotation: jax.Array,
+                   key: Optional[jax.Array] = None, observe: bool = True):
+        """Grasp at heightmap pixel (B, 2) [row, col] with rotation index (B,) (unchecked)."""
+        position, yaw = self.grasp_pose(state, pixel, rotation)
+        return self.step_grasp_world(state, position, yaw, key, observe=observe)
+
+    def step_grasp_or_reset(self, state: EnvState, pixel: jax.Array, rotation: jax.Array,
+                            reset: jax.Array, reset_key: jax.Array, n_objects: jax.Array,
+                            key: Optional[jax.Array] = None, observe: bool = True):
+        """One env step for a training loop: worlds with ``reset`` (B,) bool start a new round
+        of n_objects (B,) int32 (their action is ignored, their GraspResult is a failure), the
+        others grasp at pixel (B, 2) / rotation (B,).  The new scenes settle during the same
+        physics loop as the grasps, so a reset costs no extra simulated time for the batch.
+        reset_key: (2,) raw uint32.  Returns (state, GraspResult)."""
+        position, yaw = self.grasp_pose(state, pixel, rotation)
+        return self.step_attempt_or_reset(state, self.direct_attempt(position, yaw), reset, reset_key,
+                                          n_objects, key, observe)
+
+    def step_attempt_or_reset(self, state: EnvState, attempt: Attempt, reset: jax.Array,
+                              reset_key: jax.Array, n_objects: jax.Array,
+                              key: Optional[jax.Array] = None, observe: bool = True):
+        """``step_grasp_or_reset`` for planned attempts (direct or after a viewpoint move, each
+        world on its own branch): worlds with ``reset`` (B,) start a new round of n_objects (B,)
+        instead.  Returns (state, GraspResult)."""
+        B = state.n_worlds
+        sim_state, result = self.sim.grasp_or_reset_batched(
+            state.sim, attempt.position, attempt.yaw, attempt.start, reset, jax.random.split(reset_key, B),
+            n_objects)
+        state = self._after_grasp(state, sim_state, result, key, attempt.motions, observe, grasped=~reset,
+                                  view_travel=attempt.view_travel)
+        return state, result
+
+    # ------------------------------------------------------------------ public, validated
+
+    def reset(self, key, n_objects) -> EnvState:
+        """New scenes: key (2,) uint32 PRNG key, n_objects (B,) ints in 1..max_objects."""
+        n = np.asarray(n_objects)
+        N = self.cfg.scene.max_objects
+        if n.ndim != 1 or n.size == 0 or not np.issubdtype(n.dtype, np.integer) or n.min() < 1 or n.max() > N:
+            raise ValueError(
+                f"n_objects must be a (B,) array of integers in 1..{N} (scene.max_objects = {N}); "
+                f"got {n.tolist()!r}"
+            )
+        key = _raw_key(key)
+        self.prepare(n.shape[0])
+        state = self._reset_jit(key, jnp.asarray(n, jnp.int32))
+        check_overflow(state.sim, warn=True)  # warns, naming the worlds; they can be reset again
+        return state
+
+    def grasp(self, state: EnvState, pixel, rotation, key=None):
+        """Grasp in every world at heightmap pixel (B, 2) [row, col], rotation index (B,).
+
+        Returns (EnvState, GraspResult).  Raises ValueError for pixels outside the heightmap or
+        rotation indices outside 0..n_rotations-1.
+        """
+        B, H = state.n_worlds, self.cfg.workspace.heightmap_px
+        R = self.cfg.grasp.n_rotations
+        pixel = np.asarray(pixel)
+        rotation = np.asarray(rotation)
+        if pixel.shape != (B, 2) or not np.issubdtype(pixel.dtype, np.integer):
+            raise ValueError(f"pixel must be a (B, 2) = ({B}, 2) integer array of [row, col]; "
+                             f"got shape {pixel.shape} dtype {pixel.dtype}")
+        if pixel.min() < 0 or pixel.max() >= H:
+            bad = pixel[(pixel < 0).any(1) | (pixel >= H).any(1)]
+            raise ValueError(f"pixel [row, col] must lie in 0..{H - 1} (heightmap is {H} x {H}); "
+                             f"got {bad[:4].tolist()}")
+        if rotation.shape != (B,) or not np.issubdtype(rotation.dtype, np.integer):
+            raise ValueError(f"rotation must be a (B,) = ({B},) integer array; got shape "
+                             f"{rotation.shape} dtype {rotation.dtype}")
+        if rotation.min() < 0 or rotation.max() >= R:
+            raise ValueError(f"rotation index must lie in 0..{R - 1} ({R} rotations of "
+                             f"{180 / (R / 2):.1f} deg); got {rotation[(rotation < 0) | (rotation >= R)][:4].tolist()}")
+        key = None if key is None else _raw_key(key)
+        state, result = self._grasp_jit(state, jnp.asarray(pixel, jnp.int32), jnp.asarray(rotation, jnp.int32), key)
+        check_overflow(state.sim)
+        return state, result
+
+    def grasp_at(self, state: EnvState, position, yaw, key=None):
+        """Grasp in every world at world position (B, 3) with closing-axis yaw (B,) radians."""
+        B = state.n_worlds
+        position = jnp.asarray(position, jnp.float32)
+        yaw = jnp.asarray(yaw, jnp.float32)
+        if position.shape != (B, 3) or yaw.shape != (B,):
+            raise ValueError(f"grasp_at expects position ({B}, 3) and yaw ({B},); got "
+                             f"{position.shape} and {yaw.shape}")
+        key = None if key is None else _raw_key(key)
+        state, result = self._grasp_world_jit(state, position, yaw, key)
+        check_overflow(state.sim)
+        return state, result
+
+
+def where_worlds(mask: jax.Array, a, b):
+    """Per world: ``a`` where mask (B,) is set, else ``b`` (two pytrees of the same structure).
+
+    Leaves without a leading world dimension -- impl "warp" carries buffers shared by all
+    worlds (contacts, counters), rebuilt on every step -- are taken from ``b``.
+    """
+    B = mask.shape[0]
+
+    def pick(x, y):
+        if x.ndim == 0 or x.shape[0] != B or x.shape != y.shape:
+            return y
+        return jnp.where(mask.reshape((-1,) + (1,) * (x.ndim - 1)), x, y)
+
+    return jax.tree.map(pick, a, b)
+
+
+def _raw_key(key) -> jax.Array:
+    key = jnp.asarray(key)
+    if jnp.issubdtype(key.dtype, jax.dtypes.prng_key):
+        key = jax.random.key_data(key)
+    if key.shape != (2,):
+        raise ValueError(f"expected one PRNG key of shape (2,) (jax.random.PRNGKey(seed)); got {key.shape}")
+    return key
+
+
+__all__ = ["EnvState", "VagsEnv", "GraspResult", "CameraImage", "Attempt", "select_attempt", "where_worlds"]

@@ -1,0 +1,226 @@
+"""VAGS's decision (paper Fig. 2): grasp directly, or move the camera first; and the grasp after
+the move.  Shared by training (stages 2 and 3) and evaluation (``eval.py --policy vags``).
+
+At the global view GDNet gives grasp Q values ``(B, R, H, W)``, VANet viewpoint Q values
+``(B, H, W)`` and the success net (GDNet's architecture, trained with gamma 0) an estimate of
+each grasp's success ``(B, R, H, W)``.  Per world the *gate* (``config.Vags.gate``) scores the
+state and the world grasps directly where the score exceeds the threshold:
+
+* ``"q"`` (the paper): score = GDNet's largest Q, threshold = the calibrated Q threshold;
+* ``"success"``: score = p_direct - p_view, threshold = ``-vags.move_cost``, where p_direct is
+  the success net at GDNet's argmax and p_view VANet's largest Q (VANet trained with gamma 0 on
+  the success of the grasp after the move): move when a move is expected to add more than
+  ``move_cost`` of success.
+
+A direct grasp is GDNet's argmax (1 motion).  Otherwise the camera moves to the viewpoint
+above VANet's argmax cell (``camera.viewpoint_pose``), takes the raw depth image there, and
+grasps with the close-view planner (``vags.local_planner``): ``"gdnet"``, GDNet's argmax on the
+global maps fused with the close view (``view_fusion``) among the cells the close view saw;
+``"ggcnn"``, GG-CNN's best grasp in the close image.  2 motions.  A threshold of ``-inf``
+always grasps directly (the VANet ablation); ``+inf`` always moves.
+"""
+from __future__ import annotations
+
+from typing import Any, Callable, Optional
+
+import jax
+import jax.numpy as jnp
+from flax import struct
+
+from vags_jax import batching
+from vags_jax.perception import view_fusion
+from vags_jax.config import Config, Vags
+from vags_jax.env import CameraImage, EnvState, VagsEnv, select_attempt
+
+
+@struct.dataclass
+class Decision:
+    """Per world (B worlds): direct (B,) bool, grasp directly; grasp (B, 3) int32 GDNet's
+    argmax [rotation, row, col]; view (B, 2) int32 VANet's argmax [row, col]; q_max (B,)
+    float32 the largest GDNet Q; score (B,) float32 the gate's score (``gate_score``)."""
+
+    direct: jax.Array
+    grasp: jax.Array
+    view: jax.Array
+    q_max: jax.Array
+    score: jax.Array
+
+
+@struct.dataclass
+class CloseView:
+    """What the move to a viewpoint produced, per world (B worlds): image (``CameraImage``, the
+    close RGB-D image); color (B, H, W, 3) / height (B, H, W) the fused maps and seen (B, H, W)
+    the cells the close image saw ("gdnet" planner; the global maps for "ggcnn"); action (B, 3)
+    int32 GDNet's [rotation, row, col] on the fused maps ("gdnet"; zeros for "ggcnn");
+    image_grasp GG-CNN's ``ImageGrasp`` ("ggcnn"; None for "gdnet")."""
+
+    image: CameraImage
+    color: jax.Array
+    height: jax.Array
+    seen: jax.Array
+    action: jax.Array
+    image_grasp: Any = None
+
+
+def greedy(q: jax.Array):
+    """q (B, ...) -> (argmax indices (B, q.ndim - 1) int32, max (B,) float32) over all but B."""
+    b = q.shape[0]
+    flat = q.reshape(b, -1)
+    best = jnp.argmax(flat, axis=1)
+    q_max = jnp.take_along_axis(flat, best[:, None], axis=1)[:, 0].astype(jnp.float32)
+    return jnp.stack(jnp.unravel_index(best, q.shape[1:]), axis=-1).astype(jnp.int32), q_max
+
+
+def value_at(q: jax.Array, action: jax.Array) -> jax.Array:
+    """q (B, R, H, W) at action (B, 3) [rotation, row, col] -> (B,) float32."""
+    b = jnp.arange(q.shape[0])
+    return q[b, action[:, 0], action[:, 1], action[:, 2]].astype(jnp.float32)
+
+
+def gate_score(gate: str, q_max: jax.Array, p_direct: Optional[jax.Array], p_view: Optional[jax.Array],
+               calibration: Optional[jax.Array] = None):
+    """The gate's score (B,): GDNet's largest Q ("q") or the calibrated p_direct - p_view
+    ("success"); calibration (2,) [direct, view]: each estimate's running bias (estimate minus
+    outcome, ``update_calibration``), subtracted from it (None: no correction)."""
+    if gate == "q":
+        return q_max.astype(jnp.float32)
+    if p_direct is None or p_view is None:
+        raise ValueError("the 'success' gate needs the success net's and VANet's estimates")
+    cal = jnp.zeros((2,), jnp.float32) if calibration is None else jnp.asarray(calibration, jnp.float32)
+    return ((p_direct - cal[0]) - (p_view - cal[1])).astype(jnp.float32)
+
+
+def update_calibration(calibration: jax.Array, p_direct: jax.Array, p_view: jax.Array, success: jax.Array,
+                       direct: jax.Array, view: jax.Array, decay: float) -> jax.Array:
+    """The running bias (2,) [direct, view] of the success estimates after one iteration:
+    p_direct, p_view (B,) the estimates, success (B,) bool the outcomes, direct / view (B,) bool
+    the greedy attempts of each kind.  Each entry moves to ``decay * old + (1 - decay) * mean(p -
+    success)`` over its attempts, and stays where it has none."""
+    out = []
+    for i, (p, m) in enumerate(((p_direct, direct), (p_view, view))):
+        n = m.sum()
+        err = jnp.where(m, p - success.astype(jnp.float32), 0.0).sum() / jnp.maximum(n, 1)
+        out.append(jnp.where(n > 0, decay * calibration[i] + (1.0 - decay) * err, calibration[i]))
+    return jnp.stack(out).astype(jnp.float32)
+
+
+def gate_threshold(vcfg: Vags, q_threshold) -> jax.Array:
+    """The threshold the gate's score is compared with: the Q threshold ("q") or -move_cost."""
+    if vcfg.gate == "q":
+        return jnp.asarray(q_threshold, jnp.float32)
+    return jnp.asarray(-vcfg.move_cost, jnp.float32)
+
+
+def _check_maps(q_grasp, q_view) -> None:
+    if q_grasp.ndim != 4:
+        raise ValueError(f"decide: GDNet Q must be (B, R, H, W), got shape {tuple(q_grasp.shape)}")
+    b, _, h, w = q_grasp.shape
+    if tuple(q_view.shape) != (b, h, w):
+        raise ValueError(f"decide: VANet Q must be (B, H, W) = ({b}, {h}, {w}) like GDNet's, got "
+                         f"{tuple(q_view.shape)}")
+
+
+def decide(q_grasp: jax.Array, q_view: jax.Array, threshold, q_success: Optional[jax.Array] = None,
+           gate: str = "q", calibration: Optional[jax.Array] = None) -> Decision:
+    """The decision on Q maps: q_grasp (B, R, H, W), q_view (B, H, W), threshold scalar (or
+    (B,)), q_success (B, R, H, W) and calibration (2,) for the "success" gate; grasp directly
+    where the gate's score exceeds ``threshold``."""
+    _check_maps(q_grasp, q_view)
+    grasp, q_max = greedy(q_grasp)
+    view, v_max = greedy(q_view)
+    p_direct = None if q_success is None else value_at(q_success, grasp)
+    score = gate_score(gate, q_max, p_direct, v_max, calibration)
+    return Decision(direct=score > threshold, grasp=grasp, view=view, q_max=q_max, score=score)
+
+
+def close_view_grasp(cfg: Config, env: VagsEnv, state: EnvState, view: jax.Array, key,
+                     gdnet_q: Optional[Callable] = None, ggcnn_params=None, ggcnn_model=None):
+    """Move the camera above view (B, 2) [row, col], take the close image (key: its sensor
+    noise) and plan the grasp there with ``cfg.vags.local_planner`` -> (the attempt, 2 motions;
+    ``CloseView``).  gdnet_q: ``(color, height) -> (B, R, H, W)`` GDNet's Q ("gdnet");
+    ggcnn_params / ggcnn_model: GG-CNN ("ggcnn")."""
+    pose = env.viewpoint_pose(state, view)
+    image = env.camera_image(state.sim, pose, key)
+    B = state.n_worlds
+    if cfg.vags.local_planner == "gdnet":
+        if gdnet_q is None:
+            raise ValueError("the 'gdnet' close-view planner needs GDNet")
+        color, height, seen = view_fusion.fuse_close_view(state.color, state.height, image.depth, image.rgb, pose,
+                                                          cfg.camera, cfg.workspace)
+        q = gdnet_q(color, height)  # (B, R, H, W)
+        # Grasp where the close view looked; anywhere if it saw no cell of the workspace.
+        region = jnp.where(seen.any(axis=(1, 2), keepdims=True), seen, True)
+        action, _ = greedy(jnp.where(region[:, None], q, -jnp.inf))
+        position, yaw = env.grasp_pose(state.replace(height=height), action[:, 1:], action[:, 0])
+        close = CloseView(image=image, color=color, height=height, seen=seen, action=action)
+    else:
+        from vags_jax.ggcnn.planner import predict_grasp
+        from vags_jax.nets.ggcnn import GGCNN
+
+        model = GGCNN() if ggcnn_model is None else ggcnn_model
+        grasp, img = predict_grasp(model, ggcnn_params, image.depth, pose, cfg.camera, cfg.ggcnn,
+                                   cfg.grasp.depth_below_surface)
+        position, yaw = grasp.position, grasp.yaw
+        close = CloseView(image=image, color=state.color, height=state.height,
+                          seen=jnp.zeros(state.height.shape, bool), action=jnp.zeros((B, 3), jnp.int32),
+                          image_grasp=img)
+    return env.viewpoint_attempt(position, yaw, pose), close
+
+
+def plan_attempt(cfg: Config, env: VagsEnv, state: EnvState, decision: Decision, key,
+                 gdnet_q: Optional[Callable] = None, ggcnn_params=None, ggcnn_model=None):
+    """A decision -> (the attempt of every world (``env.Attempt``), ``CloseView``): GDNet's grasp
+    from the global view where ``decision.direct``, else the close-view planner's grasp at the
+    viewpoint above ``decision.view``.  Every world takes the close view (one jitted path for
+    all); the direct worlds' close grasps are discarded.  key: the close image's sensor noise."""
+    pos_d, yaw_d = env.grasp_pose(state, decision.grasp[:, 1:], decision.grasp[:, 0])
+    view_attempt, close = close_view_grasp(cfg, env, state, decision.view, key, gdnet_q, ggcnn_params, ggcnn_model)
+    attempt = select_attempt(decision.direct, env.direct_attempt(pos_d, yaw_d), view_attempt)
+    return attempt.replace(score=decision.score), close
+
+
+class VagsNets:
+    """The networks of VAGS's decision for one config: GDNet, VANet, the success net, GG-CNN.
+    ``params`` is ``{"gdnet", "vanet", "success"}`` ({"params", "batch_stats"} each; "success"
+    only for the "success" gate), ``"ggcnn"`` ({"params"}, only for the "ggcnn" planner) and
+    ``"threshold"`` (() float32, compared with the gate's score)."""
+
+    def __init__(self, cfg: Config):
+        from vags_jax.nets import make_qnet
+        from vags_jax.nets.ggcnn import GGCNN
+
+        self.cfg = cfg
+        self.gdnet, self.vanet = make_qnet(cfg.net, "gdnet"), make_qnet(cfg.net, "vanet")
+        self.ggcnn = GGCNN()
+
+    def q_fn(self, net, variables) -> Callable:
+        """``(color, height) -> Q`` of ``net`` (eval mode) over the worlds in groups of
+        ``net.forward_batch`` (GDNet's rotations of many worlds need tens of GB at once)."""
+        one = lambda c, h: net.apply(variables, c, h, False)  # noqa: E731
+        return lambda color, height: batching.map_in_groups(one, (color, height), self.cfg.net.forward_batch)
+
+    def gdnet_q(self, variables) -> Callable:
+        """``(color, height) -> (B, R, H, W)`` GDNet's Q with ``variables`` (eval mode)."""
+        return self.q_fn(self.gdnet, variables)
+
+    def decide(self, params: dict, state: EnvState):
+        """-> (Decision, GDNet's Q (B, R, H, W), VANet's Q (B, H, W)) on the global views."""
+        q_grasp = self.gdnet_q(params["gdnet"])(state.color, state.height)
+        q_view = self.q_fn(self.vanet, params["vanet"])(state.color, state.height)
+        q_success = None
+        if self.cfg.vags.gate == "success":
+            q_success = self.q_fn(self.gdnet, params["success"])(state.color, state.height)
+        decision = decide(q_grasp, q_view, params["threshold"], q_success, self.cfg.vags.gate,
+                          params.get("calibration"))
+        return decision, q_grasp, q_view
+
+    def plan(self, params: dict, key, env: VagsEnv, state: EnvState):
+        """-> (Attempt, Decision, CloseView, GDNet's Q, VANet's Q)."""
+        decision, q_grasp, q_view = self.decide(params, state)
+        attempt, close = plan_attempt(self.cfg, env, state, decision, key, self.gdnet_q(params["gdnet"]),
+                                      params.get("ggcnn"), self.ggcnn)
+        return attempt, decision, close, q_grasp, q_view
+
+
+__all__ = ["Decision", "CloseView", "greedy", "value_at", "gate_score", "update_calibration", "gate_threshold", "decide",
+           "close_view_grasp", "plan_attempt", "VagsNets"]

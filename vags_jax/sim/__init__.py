@@ -1,0 +1,6 @@
+"""Physics: the MuJoCo scene and batched MJX simulation of B worlds.
+
+* ``scene``: the ``MjSpec`` of table, floating gripper and object pool (``build_scene``).
+* ``simulator``: ``Simulator``, the scene reset (drop + settle) and the top-down grasp primitive
+  over a ``SimState`` of B worlds (impl "jax" or "warp").
+"""

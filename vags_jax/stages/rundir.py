@@ -1,0 +1,235 @@
+"""The training pipeline's run directory: where each stage keeps its checkpoints, how far each
+stage got, and the networks each stage hands to the next (and to ``eval.py``).
+
+A run directory::
+
+    RUN/config.json            the whole pipeline's config
+    RUN/checkpoints/, metrics.jsonl       stage 1 (GDNet)            -- Stage1State
+    RUN/ggcnn/                 GG-CNN (train.py --stage ggcnn): checkpoints/, config.json, metrics.json
+    RUN/stage2/checkpoints/, metrics.jsonl  stage 2 (VANet, GDNet frozen) -- VagsTrainState
+    RUN/stage3/checkpoints/, metrics.jsonl  stage 3 (both, alternating)  -- VagsTrainState
+    RUN/timings.jsonl          wall-clock of every stage segment train.py ran
+
+Stage order: ``ggcnn``, ``stage1``, ``stage2``, ``stage3`` (``ORDER``).  Stage 2 starts from
+stage 1's final GDNet and GG-CNN; stage 3 from stage 2's final GDNet, VANet and threshold.
+Stage N's checkpoint step is its iteration count, so a stage is complete when its latest
+checkpoint step equals ``stageN.iterations``.
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+from typing import Any, Optional
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from flax import struct
+
+from vags_jax.stages import checkpoint
+from vags_jax.rl import dqn
+from vags_jax.config import Config
+from vags_jax.nets import init_qnet, make_qnet
+
+ORDER = ("ggcnn", "stage1", "stage2", "stage3")
+ALIASES = {"gdnet": "stage1", "vanet": "stage2", "alternate": "stage3"}
+DESCRIPTION = {"ggcnn": "GG-CNN on physics-labelled views", "stage1": "stage 1: GDNet",
+               "stage2": "stage 2: VANet, GDNet frozen", "stage3": "stage 3: GDNet and VANet, alternating"}
+STAGE_SEED_SALT = {"stage1": 0, "stage2": 2, "stage3": 3}
+
+
+def canonical(name: str) -> str:
+    """A stage name or alias (gdnet, vanet, alternate) -> one of ``ORDER``; ValueError otherwise."""
+    n = ALIASES.get(name, name)
+    if n not in ORDER:
+        raise ValueError(f"unknown stage {name!r}; choose one of {', '.join(ORDER)} "
+                         f"(aliases: {', '.join(f'{a}={b}' for a, b in ALIASES.items())})")
+    return n
+
+
+def stage_dir(run_dir: str, name: str) -> str:
+    """Where stage ``name`` keeps its checkpoints (stage 1: the run directory itself)."""
+    name = canonical(name)
+    if name == "stage1":
+        return run_dir
+    return os.path.join(run_dir, name)
+
+
+def total(cfg: Config, name: str) -> int:
+    """Iterations of stage ``name`` (GG-CNN: 1, it is done or not)."""
+    name = canonical(name)
+    return 1 if name == "ggcnn" else getattr(cfg, name).iterations
+
+
+def progress(run_dir: str, name: str) -> int:
+    """The latest checkpoint step of stage ``name`` in ``run_dir`` (0: not started; GG-CNN: 1
+    when its checkpoint exists)."""
+    d = stage_dir(run_dir, name)
+    steps = checkpoint.checkpoint_steps(d) if os.path.isdir(d) else []
+    if canonical(name) == "ggcnn":
+        return 1 if steps else 0
+    return steps[-1] if steps else 0
+
+
+def stage_key(cfg: Config, name: str) -> jax.Array:
+    """The PRNG key a stage starts from: ``PRNGKey(seed)`` for stage 1 (as before the pipeline
+    existed), folded with the stage number for stages 2 and 3."""
+    base = jax.random.PRNGKey(cfg.seed)
+    salt = STAGE_SEED_SALT[canonical(name)]
+    return base if salt == 0 else jax.random.fold_in(base, salt)
+
+
+def learner_target(cfg: Config, kind: str) -> dqn.TrainState:
+    """Host zeros shaped like a GDNet / VANet learner of ``cfg`` (a restore target; nothing is
+    compiled)."""
+    H = cfg.workspace.heightmap_px
+    net = make_qnet(cfg.net, kind)
+    shapes = jax.eval_shape(lambda k: dqn.create_train_state(init_qnet(k, net, H, H), cfg.dqn), jax.random.PRNGKey(0))
+    return jax.tree.map(lambda x: np.zeros(x.shape, x.dtype), shapes)
+
+
+def _need(run_dir: str, cfg: Config, name: str, for_what: str) -> int:
+    """The final step of stage ``name``; CheckpointError saying what to run when it is not done."""
+    done, want = progress(run_dir, name), total(cfg, name)
+    if done < want:
+        what = "no checkpoint" if done == 0 else f"reached iteration {done} of {want}"
+        raise checkpoint.CheckpointError(
+            f"{for_what} needs the end of {DESCRIPTION[name]} in {run_dir}, which has {what}: run "
+            f"python train.py --out {run_dir} --resume (the whole pipeline) or --stage {name} first")
+    return want
+
+
+def stage1_gdnet(run_dir: str, cfg: Config, for_what: str = "stage 2") -> dqn.TrainState:
+    """Stage 1's final GDNet learner (online + target + optimizer state)."""
+    step = _need(run_dir, cfg, "stage1", for_what)
+    learner, _ = checkpoint.restore_part(run_dir, "learner", learner_target(cfg, "gdnet"), step)
+    return learner
+
+
+def ggcnn_params(run_dir: str, cfg: Config, for_what: str = "stage 2"):
+    """GG-CNN's parameters of the run ({"params"})."""
+    from vags_jax.stages import ggcnn as ggcnn_stage
+
+    _need(run_dir, cfg, "ggcnn", for_what)
+    params, _ = ggcnn_stage.load_ggcnn(run_dir)
+    return params
+
+
+def stage2_result(run_dir: str, cfg: Config, for_what: str = "stage 3"):
+    """Stage 2's final (GDNet learner, VANet learner, success-net learner, threshold () float32)."""
+    step = _need(run_dir, cfg, "stage2", for_what)
+    d = stage_dir(run_dir, "stage2")
+    gd, _ = checkpoint.restore_part(d, "gdnet", learner_target(cfg, "gdnet"), step)
+    va, _ = checkpoint.restore_part(d, "vanet", learner_target(cfg, "vanet"), step)
+    su, _ = checkpoint.restore_part(d, "success", learner_target(cfg, "gdnet"), step)
+    thr, _ = checkpoint.restore_part(d, "threshold", np.zeros((), np.float32), step)
+    return gd, va, su, jnp.asarray(thr, jnp.float32)
+
+
+@struct.dataclass
+class VagsNetworks:
+    """Everything ``eval.py --policy vags`` needs: GDNet, VANet and success-net variables
+    ({"params", "batch_stats"}; success None in runs from before the success net), GG-CNN's
+    {"params"}, the "q" gate's threshold () float32 (``q_threshold``; ``evaluate.vags_params``
+    turns it into the configured gate's threshold), and where they came from (``source``:
+    "stage3 step N" or "stage2 step N", static).  calibration: (2,) float32 the running bias
+    [direct, view] of the success estimates (None in runs from before it was kept)."""
+
+    gdnet: Any
+    vanet: Any
+    ggcnn: Any
+    q_threshold: jax.Array
+    success: Any = None
+    calibration: Any = None
+    source: str = struct.field(pytree_node=False, default="")
+
+
+def networks_dir(run_dir: str, name: str) -> str:
+    """Where stage 2 / 3 keep their networks alone (a few MB, no worlds or replays): the policy
+    that ``eval.py --policy vags`` loads, and that can be copied to another machine."""
+    return os.path.join(stage_dir(run_dir, name), "networks")
+
+
+def save_networks(run_dir: str, name: str, step: int, state, cfg: Config) -> str:
+    """Writes the GDNet, VANet and success-net variables and the "q" gate's threshold of a
+    ``VagsTrainState`` at ``step`` to ``networks_dir`` -> that directory.  After stage 3 the
+    threshold is re-set on its last views (``vags_stages.final_threshold``): GDNet changed."""
+    from vags_jax.stages.stage23 import final_threshold
+
+    as_vars = lambda ts: {"params": ts.params, "batch_stats": ts.batch_stats}  # noqa: E731
+    thr = final_threshold(state, cfg.vags) if name == "stage3" else state.threshold
+    d = networks_dir(run_dir, name)
+    checkpoint.save(d, step, {"gdnet": as_vars(state.gdnet), "vanet": as_vars(state.vanet),
+                              "success": as_vars(state.success), "threshold": thr,
+                              "calibration": state.calibration})
+    return d
+
+
+def _vars_target(cfg: Config, kind: str) -> dict:
+    ts = learner_target(cfg, kind)
+    return {"params": ts.params, "batch_stats": ts.batch_stats}
+
+
+def load_vags(run_dir: str, cfg: Optional[Config] = None, step: Optional[int] = None) -> VagsNetworks:
+    """The latest VAGS networks of a run: stage 3's (checkpoint ``step``, default its latest)
+    when stage 3 saved any, else stage 2's; read from the stage's ``networks/`` directory, and
+    GG-CNN from RUN/ggcnn (None when the run has none).  CheckpointError (one line, what to
+    run) when there are none."""
+    from vags_jax.stages import ggcnn as ggcnn_stage
+
+    cfg = checkpoint.load_config(run_dir) if cfg is None else cfg
+    found = [n for n in ("stage3", "stage2") if os.path.isdir(networks_dir(run_dir, n))
+             and checkpoint.checkpoint_steps(networks_dir(run_dir, n))]
+    if not found:
+        raise checkpoint.CheckpointError(
+            f"run {run_dir} has no VANet yet (no stage 2 or 3 networks): train it with "
+            f"python train.py --out {run_dir} --resume (or --stage stage2)")
+    d = networks_dir(run_dir, found[0])
+    gd, s = checkpoint.restore_part(d, "gdnet", _vars_target(cfg, "gdnet"), step)
+    va, _ = checkpoint.restore_part(d, "vanet", _vars_target(cfg, "vanet"), s)
+    thr, _ = checkpoint.restore_part(d, "threshold", np.zeros((), np.float32), s)
+    su = cal = None
+    parts = checkpoint.saved_parts(d, s)
+    if "success" in parts:
+        su, _ = checkpoint.restore_part(d, "success", _vars_target(cfg, "gdnet"), s)
+    if "calibration" in parts:
+        cal, _ = checkpoint.restore_part(d, "calibration", np.zeros((2,), np.float32), s)
+        cal = jnp.asarray(cal, jnp.float32)
+    gg = None
+    if os.path.isdir(ggcnn_stage.ggcnn_dir(run_dir)):
+        gg, _ = ggcnn_stage.load_ggcnn(run_dir)
+    return VagsNetworks(gdnet=gd, vanet=va, ggcnn=gg, q_threshold=jnp.asarray(thr, jnp.float32), success=su,
+                        calibration=cal,
+                        source=f"{found[0]} step {s}")
+
+
+def _saved_without(run_dir: str, section: str, field: str) -> bool:
+    """Whether ``run_dir``'s config.json has ``section`` but not ``section.field`` (written by
+    code older than the field, so it loads with today's default instead of what was used)."""
+    with open(os.path.join(run_dir, checkpoint.CONFIG_FILE), encoding="utf-8") as f:
+        saved = json.load(f)
+    return isinstance(saved.get(section), dict) and field not in saved[section]
+
+
+def ggcnn_reusable(run_dir: str, cfg: Config) -> Optional[str]:
+    """For a new pipeline in ``run_dir``: None when it holds no GG-CNN, or one trained on the
+    same data and GG-CNN settings as ``cfg`` (it is reused); else a message saying why not."""
+    from vags_jax.ggcnn import data as ggcnn_data
+    from vags_jax.stages import ggcnn as ggcnn_stage
+
+    gdir = ggcnn_stage.ggcnn_dir(run_dir)
+    if not (os.path.isdir(gdir) and checkpoint.checkpoint_steps(gdir)):
+        return None
+    old = checkpoint.load_config(gdir)
+    if _saved_without(gdir, "ggcnn", "labels"):  # saved before labels was a setting: GG-CNN's positives
+        old = dataclasses.replace(old, ggcnn=dataclasses.replace(old.ggcnn, labels="positives"))
+    if ggcnn_data.data_hash(old) != ggcnn_data.data_hash(cfg) or old.ggcnn != cfg.ggcnn:
+        return (f"{gdir} holds a GG-CNN trained with another config (its data or ggcnn section differ); "
+                f"delete {gdir} or choose another --out")
+    return None
+
+
+__all__ = ["ORDER", "ALIASES", "DESCRIPTION", "canonical", "stage_dir", "total", "progress", "stage_key",
+           "learner_target", "stage1_gdnet", "ggcnn_params", "stage2_result", "VagsNetworks", "load_vags",
+           "networks_dir", "save_networks", "ggcnn_reusable"]

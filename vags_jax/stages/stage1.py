@@ -1,0 +1,203 @@
+"""Training stages as pure functions (paper section 3.2).
+
+Stage 1 trains GDNet alone in B parallel worlds of ``stage1.min_objects..max_objects`` objects.
+One *iteration* is, for every world at once:
+
+  1. GDNet (eval mode) on the global heightmaps -> Q (B, R, H, W);
+  2. DAES picks an action (B, 3) [rotation, row, col] (``vags_jax.rl.exploration``);
+  3. the grasp is simulated (``VagsEnv.step_grasp_or_reset``); reward = 1 on success else 0.
+     Worlds whose round ended in the previous iteration (clear, attempt budget used, or a
+     physics error) do not grasp this time: they get a new scene with a random object count,
+     which settles in the same physics loop as the other worlds' grasps (so a reset does not
+     stall the batch); then every world is rendered once;
+  4. the grasping worlds' transitions go into prioritized replay (the resetting worlds add
+     none); the last transition of a round is terminal (no bootstrap: a cleared table has no
+     future, and the world's next view will be another scene);
+  5. ``updates_per_iteration`` DQN updates from replay (once it holds ``learning_starts``).
+
+Everything is one ``lax.scan`` over iterations inside one jit: no host round trip per step.
+``Stage1.run(state, n)`` advances n iterations and returns per-iteration metrics, so a caller can
+log and checkpoint between chunks; ``stage1(cfg, key)`` is the whole stage as one pure function
+``key -> (learner, metrics)``.  Running the same chunks from a restored ``Stage1State`` gives
+bit-identical results to an uninterrupted run.
+"""
+from __future__ import annotations
+
+from typing import Optional
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from flax import struct
+
+from vags_jax.rl import dqn, exploration, replay
+from vags_jax.config import Config
+from vags_jax.env import EnvState, VagsEnv
+from vags_jax.nets import init_qnet, make_qnet
+
+
+@struct.dataclass
+class Stage1State:
+    """Everything stage 1 carries from one iteration to the next (a checkpointable pytree).
+
+    env: B worlds (``EnvState``); learner: GDNet online/target variables + optimizer state;
+    replay: prioritized replay of ``GraspTransition``; key: (2,) uint32; iteration: () int32;
+    attempts: () int32, grasp attempts made so far (all worlds).  (Which worlds start a new
+    round in the next iteration follows from ``env``: ``round_over`` or a physics error.)
+    """
+
+    env: EnvState
+    learner: dqn.TrainState
+    replay: replay.ReplayState
+    key: jax.Array
+    iteration: jax.Array
+    attempts: jax.Array
+
+
+# Per-iteration metrics returned by Stage1.run, each of shape (n,).
+METRICS = (
+    "success_rate", "explored", "epsilon", "loss", "td_abs", "q_max", "q_executed",
+    "rounds_ended", "rounds_cleared", "objects_on_table", "physics_errors", "buffer_overflow",
+    "replay_size", "updates", "attempts", "attempts_total", "worlds_resetting",
+)
+
+
+class Stage1:
+    """GDNet training in batched worlds.  Build once per config; ``run`` is compiled per n."""
+
+    def __init__(self, cfg: Config, env: Optional[VagsEnv] = None):
+        self.cfg = cfg
+        self.env = env if env is not None else VagsEnv(cfg)
+        self.net = make_qnet(cfg.net, "gdnet")
+        self.update = dqn.make_update_step(self._apply, cfg.dqn, executed_rotation_only=True)
+        self._run_jit = jax.jit(self._run_impl, static_argnums=1)
+
+    def _apply(self, variables, color, height, train, mutable=False, rotations=None):
+        return self.net.apply(variables, color, height, train, rotations=rotations, mutable=mutable)
+
+    def _n_objects(self, key: jax.Array, n_worlds: int) -> jax.Array:
+        s = self.cfg.stage1
+        return jax.random.randint(key, (n_worlds,), s.min_objects, s.max_objects + 1, jnp.int32)
+
+    def init(self, key: jax.Array, learner: Optional[dqn.TrainState] = None) -> Stage1State:
+        """Fresh worlds, replay and (unless given) a freshly initialised GDNet learner."""
+        cfg = self.cfg
+        key = jnp.asarray(key)
+        if jnp.issubdtype(key.dtype, jax.dtypes.prng_key):
+            key = jax.random.key_data(key)
+        k_net, k_n, k_env, k_loop = jax.random.split(key, 4)
+        H = cfg.workspace.heightmap_px
+        if learner is None:
+            learner = dqn.create_train_state(init_qnet(k_net, self.net, H, H), cfg.dqn)
+        env_state = self.env.reset(k_env, np.asarray(self._n_objects(k_n, cfg.stage1.n_worlds)))
+        example = replay.make_grasp_transition(
+            env_state.color[0], env_state.height[0], jnp.zeros((3,), jnp.int32), 0.0,
+            env_state.color[0], env_state.height[0], False)
+        buffer = replay.init(cfg.replay.capacity, example)
+        return Stage1State(env=env_state, learner=learner, replay=buffer, key=k_loop,
+                           iteration=jnp.zeros((), jnp.int32), attempts=jnp.zeros((), jnp.int32))
+
+    # ------------------------------------------------------------------ one iteration
+
+    def _learn(self, learner, buffer, key):
+        """updates_per_iteration DQN updates (skipped until replay holds learning_starts)."""
+        s = self.cfg.stage1
+        return dqn.learn_from_replay(self.update, learner, buffer, key, self.cfg, s.updates_per_iteration,
+                                     s.learning_starts)
+
+    def _iteration(self, state: Stage1State, _):
+        cfg, env = self.cfg, self.env
+        key, k_act, k_grasp, k_n, k_reset, k_learn = jax.random.split(state.key, 6)
+        s = state.env
+        eps = exploration.epsilon(state.iteration, cfg.exploration)
+        variables = {"params": state.learner.params, "batch_stats": state.learner.batch_stats}
+        q = self._apply(variables, s.color, s.height, False)  # (B, R, H, W)
+        action, explored = exploration.select_grasp(k_act, q, s.height, eps, cfg.exploration)
+        q_exec = dqn.q_at_action(q, action)
+
+        noise_key = k_grasp if cfg.camera.noise.enabled else None
+        # Grasps of the playing worlds and new scenes of the worlds whose round ended, in one
+        # physics loop, then ONE render of all worlds.
+        resetting = env.round_over(s) | s.sim.error  # rounds that ended last iteration
+        grasped = ~resetting
+        s2, result = env.step_grasp_or_reset(s, action[:, 1:], action[:, 0], resetting, k_reset,
+                                             self._n_objects(k_n, s.n_worlds), observe=False)
+        s2 = env.with_observation(s2, noise_key)
+        reward = result.success.astype(jnp.float32)
+        cleared = grasped & (env.n_remaining(s2) == 0)
+        over = env.round_over(s2) | s2.sim.error
+        transitions = replay.make_grasp_transition(s.color, s.height, action, reward, s2.color, s2.height, over)
+        buffer = replay.add(state.replay, transitions, mask=grasped)
+        learner, buffer, (loss, td_abs), n_updates = self._learn(state.learner, buffer, k_learn)
+
+        n_grasped = grasped.sum()
+        attempts = state.attempts + n_grasped
+        metrics = {
+            "success_rate": reward.sum() / jnp.maximum(n_grasped, 1),
+            "explored": (explored & grasped).sum() / jnp.maximum(n_grasped, 1),
+            "epsilon": jnp.asarray(eps, jnp.float32),
+            "loss": loss,
+            "td_abs": td_abs,
+            "q_max": q.reshape(q.shape[0], -1).max(axis=1).mean(),
+            "q_executed": q_exec.mean(),
+            "rounds_ended": (over & grasped).sum(),
+            "rounds_cleared": cleared.sum(),
+            "objects_on_table": env.n_remaining(s2).mean(),
+            "physics_errors": s2.sim.error.sum(),
+            "buffer_overflow": s2.sim.overflow.sum(),
+            "replay_size": buffer.size,
+            "updates": n_updates,
+            "attempts": n_grasped,
+            "attempts_total": attempts,
+            "worlds_resetting": resetting.sum(),
+        }
+        metrics = {k: jnp.asarray(v, jnp.float32) for k, v in metrics.items()}
+        new_state = Stage1State(env=s2, learner=learner, replay=buffer, key=key,
+                                iteration=state.iteration + 1, attempts=attempts)
+        return new_state, metrics
+
+    def _run_impl(self, state: Stage1State, n: int):
+        return jax.lax.scan(self._iteration, state, None, length=n)
+
+    # ------------------------------------------------------------------ public
+
+    def run(self, state: Stage1State, n: int):
+        """Advance ``n`` iterations -> (state, metrics dict of (n,) float32 arrays)."""
+        if not isinstance(n, int) or n < 1:
+            raise ValueError(f"run: n must be a positive int, got {n!r}")
+        self.env.prepare(state.env.n_worlds)  # caches built outside the trace
+        return self._run_jit(state, n)
+
+
+def checkpoint_layout(cfg: Config) -> dict:
+    """Shapes and dtypes (pytrees of ``jax.ShapeDtypeStruct``) of the ``Stage1State`` parts
+    that follow from the config alone: ``learner``, ``replay``, ``key``, ``iteration`` and
+    ``attempts`` (``env`` needs the simulator).  Traced with ``jax.eval_shape``: nothing is
+    compiled or allocated, so a checkpoint can be checked against a config before any
+    compiling (train.py --resume)."""
+    H = cfg.workspace.heightmap_px
+    net = make_qnet(cfg.net, "gdnet")
+    learner = jax.eval_shape(lambda k: dqn.create_train_state(init_qnet(k, net, H, H), cfg.dqn),
+                             jax.random.PRNGKey(0))
+
+    def buffer():
+        color, height = jnp.zeros((H, H, 3), jnp.uint8), jnp.zeros((H, H), jnp.float32)
+        example = replay.make_grasp_transition(color, height, jnp.zeros((3,), jnp.int32), 0.0,
+                                               color, height, False)
+        return replay.init(cfg.replay.capacity, example)
+
+    scalar = jax.ShapeDtypeStruct((), jnp.int32)
+    return {"learner": learner, "replay": jax.eval_shape(buffer),
+            "key": jax.eval_shape(lambda: jax.random.split(jax.random.PRNGKey(0))[0]),
+            "iteration": scalar, "attempts": scalar}
+
+
+def make_stage1(cfg: Config, env: Optional[VagsEnv] = None) -> Stage1:
+    return Stage1(cfg, env)
+
+
+def stage1(cfg: Config, key: jax.Array, learner: Optional[dqn.TrainState] = None):
+    """The whole of stage 1 as one pure function: key -> (GDNet learner, metrics (iterations,))."""
+    stage = Stage1(cfg)
+    state, metrics = stage.run(stage.init(key, learner), cfg.stage1.iterations)
+    return state.learner, metrics

@@ -1,0 +1,383 @@
+"""Training stages 2 and 3 (paper section 3.2): VANet, then GDNet and VANet together.
+
+Both stages play VAGS itself in B parallel worlds of ``stageN.min_objects..max_objects``
+objects.  One *iteration* is, for every world at once:
+
+  1. the gate (``vags_jax.policies.decision``): stage 2 moves the camera where GDNet's largest Q is at
+     most the threshold (``vags.threshold``, or the value calibrated at stage 2's start);
+     stage 3 uses ``vags.gate`` ("success": the success net's estimate of the direct grasp
+     against VANet's estimate of the grasp after a move, less ``vags.move_cost``);
+  2. DAES (``vags_jax.rl.exploration``) picks the viewpoint among object pixels with probability
+     epsilon (VANet's argmax otherwise); in stage 3 it also explores GDNet's direct grasps
+     (stage 2 grasps directly at GDNet's argmax: GDNet is frozen);
+  3. the attempt runs (``VagsEnv.step_attempt_or_reset``): a direct grasp (1 motion) or the move
+     to the viewpoint, the close image and the close-view planner's grasp (2 motions).  Worlds
+     whose round ended start a new scene in the same physics loop, as in stage 1;
+  4. the new global views are rendered and GDNet's argmax and largest Q on them are computed:
+     the next iteration's decision, and the "after" of eq. 5 (``view_reward``);
+  5. transitions: the viewpoint worlds' into VANet's replay (action [row, col], reward
+     ``view_reward``: the success of the grasp after the move, or eq. 5); GDNet's grasps -- the
+     direct ones, and with the "gdnet" planner those on the fused close-view maps -- into
+     GDNet's replay (action [rotation, row, col], reward 1 on success); the last attempt of a
+     round is terminal;
+  6. ``updates_per_iteration`` updates of each learner from its replay: the success net
+     (gamma 0, GDNet's replay; stages 2 and 3), GDNet (stage 3) and VANet (``vags.vanet_gamma``);
+     a learner starts once its replay holds ``learning_starts`` transitions.
+
+GDNet's argmax and largest Q are carried from one iteration to the next (step 4), so GDNet runs
+once per iteration on the global views (and once on the fused maps with the "gdnet" planner);
+in stage 3 the decision uses the GDNet of the previous iteration's start.  GG-CNN is frozen.
+
+Everything is one ``lax.scan`` inside one jit.  ``VagsStage.run(state, n)`` advances n
+iterations; running the same chunks from a restored state gives bit-identical results.
+``stage2(...)`` / ``stage3(...)`` are the stages as pure functions.
+"""
+from __future__ import annotations
+
+from typing import Any, Optional
+
+import dataclasses
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from flax import struct
+
+from vags_jax import batching
+from vags_jax.rl import dqn, exploration, replay
+from vags_jax.config import Config, Stage, Vags
+from vags_jax.policies.decision import (Decision, gate_score, gate_threshold, greedy, plan_attempt, update_calibration,
+                               value_at)
+from vags_jax.env import EnvState, VagsEnv
+from vags_jax.nets import init_qnet, make_qnet
+from vags_jax.nets.ggcnn import GGCNN
+
+
+@struct.dataclass
+class VagsTrainState:
+    """What stages 2 and 3 carry between iterations (a checkpointable pytree).
+
+    env: B worlds; gdnet / vanet / success: learners (``dqn.TrainState``; GDNet is frozen in
+    stage 2; the success net has GDNet's architecture and learns with gamma 0);
+    vanet_replay / gdnet_replay: prioritized replays of ``GraspTransition`` (VANet's actions
+    (2,) [row, col]; GDNet's (3,)); ggcnn: GG-CNN's ``{"params"}`` (frozen); threshold: ()
+    float32, the "q" gate's threshold; calibration: (2,) float32 the running bias [direct, view]
+    of the success estimates (``decision.update_calibration``); gd_grasp: (B, 3) int32 GDNet's argmax [rotation, row, col] on each
+    world's current global view; gd_qmax: (B,) float32 its largest Q; key: (2,) uint32;
+    iteration, attempts: () int32.
+    """
+
+    env: EnvState
+    gdnet: dqn.TrainState
+    vanet: dqn.TrainState
+    success: dqn.TrainState
+    vanet_replay: replay.ReplayState
+    gdnet_replay: replay.ReplayState
+    ggcnn: Any
+    threshold: jax.Array
+    calibration: jax.Array
+    gd_grasp: jax.Array
+    gd_qmax: jax.Array
+    key: jax.Array
+    iteration: jax.Array
+    attempts: jax.Array
+
+
+# Per-iteration metrics returned by VagsStage.run, each of shape (n,).
+METRICS = (
+    "success_rate", "success_direct", "success_view", "view_share", "view_bonus_rate", "explored",
+    "epsilon", "loss_vanet", "td_abs_vanet", "loss_gdnet", "td_abs_gdnet", "loss_success", "td_abs_success",
+    "q_max", "q_view_max", "p_direct", "p_view", "bias_direct", "bias_view",
+    "threshold", "rounds_ended", "rounds_cleared", "objects_on_table", "physics_errors", "buffer_overflow",
+    "replay_size_vanet", "replay_size_gdnet", "updates", "attempts", "attempts_total", "worlds_resetting",
+)
+# Metrics that must stay finite (train.py stops a run whose learning diverges).
+FINITE_METRICS = ("loss_vanet", "td_abs_vanet", "loss_gdnet", "td_abs_gdnet", "loss_success", "td_abs_success",
+                  "q_max", "q_view_max")
+
+
+def view_reward(success: jax.Array, q_max_before: jax.Array, q_max_after: jax.Array, vcfg: Vags) -> jax.Array:
+    """VANet's reward (``config.Vags.view_reward``): success (B,) bool, GDNet's largest Q before
+    the move and on the next global view, (B,) each -> (B,) float32.  "success": 1 on success,
+    else 0.  "eq5" (paper eq. 5, reconstructed): 0 on failure; ``success_reward`` +
+    ``view_bonus`` * [after > before] on success."""
+    if vcfg.view_reward == "success":
+        return success.astype(jnp.float32)
+    bonus = (q_max_after > q_max_before).astype(jnp.float32) * vcfg.view_bonus
+    return jnp.where(success, vcfg.success_reward + bonus, 0.0).astype(jnp.float32)
+
+
+def calibrated_threshold(q_max: jax.Array, vcfg: Vags) -> jax.Array:
+    """``vags.threshold`` when set, else the ``vags.threshold_quantile`` quantile of q_max (B,)
+    (GDNet's largest Q over stage 2's first global views) -> () float32."""
+    if vcfg.threshold is not None:
+        return jnp.asarray(vcfg.threshold, jnp.float32)
+    return jnp.quantile(q_max.astype(jnp.float32), vcfg.threshold_quantile).astype(jnp.float32)
+
+
+def _example_transition(H: int, action_dim: int):
+    color, height = jnp.zeros((H, H, 3), jnp.uint8), jnp.zeros((H, H), jnp.float32)
+    return replay.make_grasp_transition(color, height, jnp.zeros((action_dim,), jnp.int32), 0.0, color, height,
+                                        False)
+
+
+class VagsStage:
+    """Stage 2 (``which=2``: VANet and the success net, GDNet frozen) or stage 3 (``which=3``:
+    all three).  Build once per config; ``run`` is compiled per chunk length n."""
+
+    def __init__(self, cfg: Config, which: int, env: Optional[VagsEnv] = None):
+        if which not in (2, 3):
+            raise ValueError(f"VagsStage: which must be 2 or 3, got {which!r}")
+        self.cfg, self.which = cfg, which
+        self.stage: Stage = cfg.stage2 if which == 2 else cfg.stage3
+        self.env = env if env is not None else VagsEnv(cfg)
+        self.gdnet = make_qnet(cfg.net, "gdnet")
+        self.vanet = make_qnet(cfg.net, "vanet")
+        self.ggcnn = GGCNN()
+        self.update_gdnet = dqn.make_update_step(self._apply_gdnet, cfg.dqn, executed_rotation_only=True)
+        self.update_success = dqn.make_update_step(
+            self._apply_gdnet, dataclasses.replace(cfg.dqn, gamma=0.0, double_q=False, symmetric_grasp_label=False),
+            executed_rotation_only=True)
+        self.update_vanet = dqn.make_update_step(self._apply_vanet, dataclasses.replace(cfg.dqn, gamma=cfg.vags.vanet_gamma))
+        # On an accelerator the state is donated: its buffers (two replays, 16 GB with the gpu
+        # preset) are reused for the result instead of being held twice.  Not on the CPU (tests,
+        # tiny runs), where memory is not the limit.
+        self.donates = jax.default_backend() != "cpu"
+        self._run_jit = jax.jit(self._run_impl, static_argnums=1, donate_argnums=0 if self.donates else ())
+        self._greedy_jit = jax.jit(self._greedy)
+
+    def _apply_gdnet(self, variables, color, height, train, mutable=False, rotations=None):
+        return self.gdnet.apply(variables, color, height, train, rotations=rotations, mutable=mutable)
+
+    def _apply_vanet(self, variables, color, height, train, mutable=False):
+        return self.vanet.apply(variables, color, height, train, mutable=mutable)
+
+    @staticmethod
+    def _vars(ts: dqn.TrainState) -> dict:
+        return {"params": ts.params, "batch_stats": ts.batch_stats}
+
+    def _in_groups(self, fn, *args):
+        """``fn(*args)`` over the worlds in groups of ``net.forward_batch`` (inference memory)."""
+        return batching.map_in_groups(fn, args, self.cfg.net.forward_batch)
+
+    def _gdnet_q(self, ts: dqn.TrainState):
+        """``(color, height) -> (B, R, H, W)`` the learner's Q (eval mode), in world groups."""
+        one = lambda c, h: self._apply_gdnet(self._vars(ts), c, h, False)  # noqa: E731
+        return lambda color, height: self._in_groups(one, color, height)
+
+    def _greedy(self, gdnet: dqn.TrainState, s: EnvState):
+        """GDNet (eval mode) on the global views -> argmax (B, 3) [rotation, row, col], max (B,)."""
+        return self._in_groups(lambda c, h: greedy(self._apply_gdnet(self._vars(gdnet), c, h, False)),
+                               s.color, s.height)
+
+    def _p_direct(self, success: dqn.TrainState, s: EnvState, grasp: jax.Array) -> jax.Array:
+        """The success net's estimate (B,) of grasp (B, 3) on the global views (its rotation only)."""
+        def one(c, h, g):
+            q = self._apply_gdnet(self._vars(success), c, h, False, rotations=g[:, :1])
+            return value_at(q, g.at[:, 0].set(0))
+
+        return self._in_groups(one, s.color, s.height, grasp)
+
+    def _n_objects(self, key: jax.Array, n_worlds: int) -> jax.Array:
+        s = self.stage
+        return jax.random.randint(key, (n_worlds,), s.min_objects, s.max_objects + 1, jnp.int32)
+
+    def init(self, key: jax.Array, gdnet: dqn.TrainState, ggcnn_params, vanet: Optional[dqn.TrainState] = None,
+             threshold=None, success: Optional[dqn.TrainState] = None) -> VagsTrainState:
+        """Fresh worlds and replays.  gdnet: stage 1's learner (stage 2) or stage 2's (stage 3);
+        vanet / success: None for fresh ones (stage 2: VANet from scratch, the success net from
+        GDNet's variables) or stage 2's; ggcnn_params: {"params"} of GG-CNN; threshold: the "q"
+        gate's threshold (stage 3: stage 2's), or None to calibrate it
+        (``calibrated_threshold``) on these first views."""
+        cfg = self.cfg
+        key = jnp.asarray(key)
+        if jnp.issubdtype(key.dtype, jax.dtypes.prng_key):
+            key = jax.random.key_data(key)
+        k_net, k_n, k_env, k_loop = jax.random.split(key, 4)
+        H = cfg.workspace.heightmap_px
+        if vanet is None:
+            vanet = dqn.create_train_state(init_qnet(k_net, self.vanet, H, H), cfg.dqn)
+        if success is None:
+            success = dqn.create_train_state(jax.tree.map(jnp.array, self._vars(gdnet)), cfg.dqn)
+        env_state = self.env.reset(k_env, np.asarray(self._n_objects(k_n, self.stage.n_worlds)))
+        gd_grasp, gd_qmax = self._greedy_jit(gdnet, env_state)
+        thr = calibrated_threshold(gd_qmax, cfg.vags) if threshold is None else jnp.asarray(threshold, jnp.float32)
+        va_buffer = replay.init(cfg.replay.capacity, _example_transition(H, 2))
+        gd_buffer = replay.init(cfg.replay.capacity, _example_transition(H, 3))
+        # Every leaf its own buffer (``run`` donates the state, and a buffer may be donated once).
+        return VagsTrainState(env=env_state, gdnet=gdnet, vanet=vanet, success=success, vanet_replay=va_buffer,
+                              gdnet_replay=gd_buffer, ggcnn=ggcnn_params, threshold=thr.reshape(()),
+                              calibration=jnp.zeros((2,), jnp.float32),
+                              gd_grasp=gd_grasp, gd_qmax=gd_qmax, key=k_loop,
+                              iteration=jnp.zeros((), jnp.int32), attempts=jnp.zeros((), jnp.int32))
+
+    # ------------------------------------------------------------------ one iteration
+
+    def _learn(self, state: VagsTrainState, va_buffer, gd_buffer, key):
+        """The iteration's updates -> (gdnet, vanet, success, gd_buffer, va_buffer, stats
+        {"gdnet", "vanet", "success"} of (2,) [loss, |td|], updates done)."""
+        cfg, st = self.cfg, self.stage
+        k_g, k_s, k_v = jax.random.split(key, 3)
+        learn = lambda upd, ts, buf, k: dqn.learn_from_replay(  # noqa: E731
+            upd, ts, buf, k, cfg, st.updates_per_iteration, st.learning_starts)
+        gdnet, gd_stats, n_gd = state.gdnet, jnp.zeros((2,), jnp.float32), 0
+        if self.which == 3:
+            gdnet, gd_buffer, gd_stats, n_gd = learn(self.update_gdnet, state.gdnet, gd_buffer, k_g)
+            # The success net samples by GDNet's priorities (GDNet owns the buffer in stage 3).
+            success, _, s_stats, n_s = learn(self.update_success, state.success, gd_buffer, k_s)
+        else:
+            success, gd_buffer, s_stats, n_s = learn(self.update_success, state.success, gd_buffer, k_s)
+        vanet, va_buffer, va_stats, n_va = learn(self.update_vanet, state.vanet, va_buffer, k_v)
+        stats = {"gdnet": gd_stats, "vanet": va_stats, "success": s_stats}
+        return gdnet, vanet, success, gd_buffer, va_buffer, stats, n_gd + n_s + n_va
+
+    def _decision(self, state: VagsTrainState, q_view, grasp, view) -> Decision:
+        """The gate on the carried GDNet values: "q" in stage 2, ``vags.gate`` in stage 3."""
+        cfg, s = self.cfg, state.env
+        gate = "q" if self.which == 2 else cfg.vags.gate
+        p_direct = self._p_direct(state.success, s, state.gd_grasp)
+        p_view = q_view.reshape(q_view.shape[0], -1).max(axis=1)
+        score = gate_score(gate, state.gd_qmax, p_direct, p_view, state.calibration)
+        thr = state.threshold if gate == "q" else gate_threshold(cfg.vags, state.threshold)
+        return Decision(direct=score > thr, grasp=grasp, view=view, q_max=state.gd_qmax, score=score), p_direct, p_view
+
+    def _iteration(self, state: VagsTrainState, _):
+        cfg, env, st = self.cfg, self.env, self.stage
+        key, k_gx, k_vx, k_img, k_obs, k_n, k_reset, k_learn = jax.random.split(state.key, 8)
+        s = state.env
+        B = s.n_worlds
+        eps = exploration.epsilon(state.iteration, cfg.exploration)
+        q_view = self._in_groups(lambda c, h: self._apply_vanet(self._vars(state.vanet), c, h, False),
+                                 s.color, s.height)  # (B, H, W)
+        view, v_explored = exploration.select_pixel(k_vx, q_view, s.height, eps, cfg.exploration)
+        if self.which == 3:
+            grasp, g_explored = exploration.select_grasp_from_greedy(
+                k_gx, state.gd_grasp, cfg.net.n_rotations, s.height, eps, cfg.exploration)
+        else:
+            grasp, g_explored = state.gd_grasp, jnp.zeros((B,), bool)
+        decision, p_direct, p_view = self._decision(state, q_view, grasp, view)
+        direct = decision.direct
+        attempt, close = plan_attempt(cfg, env, s, decision, k_img, self._gdnet_q(state.gdnet), state.ggcnn,
+                                      self.ggcnn)
+
+        extra = st.max_attempts_extra
+        resetting = env.round_over(s, extra) | s.sim.error  # rounds that ended last iteration
+        acting = ~resetting
+        s2, result = env.step_attempt_or_reset(s, attempt, resetting, k_reset, self._n_objects(k_n, B),
+                                               observe=False)
+        s2 = env.with_observation(s2, k_obs if cfg.camera.noise.enabled else None)
+        gd_grasp2, gd_qmax2 = self._greedy(state.gdnet, s2)
+        success = result.success & acting
+        over = env.round_over(s2, extra) | s2.sim.error
+        viewing, direct_acting = acting & ~direct, acting & direct
+        calibration = update_calibration(state.calibration, p_direct, p_view, success, direct_acting & ~g_explored,
+                                         viewing & ~v_explored, cfg.vags.calibration_decay)
+
+        r_view = view_reward(success, state.gd_qmax, gd_qmax2, cfg.vags)
+        va_buffer = replay.add(state.vanet_replay, replay.make_grasp_transition(
+            s.color, s.height, view, r_view, s2.color, s2.height, over), mask=viewing)
+        # GDNet's grasps: direct ones on the global maps, close-view ones on the fused maps.
+        on_fused = ~direct & (cfg.vags.local_planner == "gdnet")
+        pick = lambda a, b: jnp.where(on_fused.reshape((-1,) + (1,) * (a.ndim - 1)), a, b)  # noqa: E731
+        r_grasp = jnp.where(success, cfg.vags.success_reward, 0.0).astype(jnp.float32)
+        gd_buffer = replay.add(state.gdnet_replay, replay.make_grasp_transition(
+            pick(close.color, s.color), pick(close.height, s.height), pick(close.action, grasp), r_grasp,
+            s2.color, s2.height, over), mask=direct_acting | (acting & on_fused))
+        gdnet, vanet, succ_net, gd_buffer, va_buffer, stats, n_updates = self._learn(
+            state, va_buffer, gd_buffer, k_learn)
+
+        n_act = acting.sum()
+        n_view, n_direct = viewing.sum(), direct_acting.sum()
+        view_success = (success & viewing).sum()
+        attempts = state.attempts + n_act
+        per = lambda num, den: num / jnp.maximum(den, 1)  # noqa: E731
+        explored = jnp.where(direct, g_explored, v_explored)
+        metrics = {
+            "success_rate": per(success.sum(), n_act),
+            "success_direct": per((success & direct_acting).sum(), n_direct),
+            "success_view": per(view_success, n_view),
+            "view_share": per(n_view, n_act),
+            "view_bonus_rate": per((viewing & success & (gd_qmax2 > state.gd_qmax)).sum(), view_success),
+            "explored": per((explored & acting).sum(), n_act),
+            "epsilon": eps,
+            "loss_vanet": stats["vanet"][0], "td_abs_vanet": stats["vanet"][1],
+            "loss_gdnet": stats["gdnet"][0], "td_abs_gdnet": stats["gdnet"][1],
+            "loss_success": stats["success"][0], "td_abs_success": stats["success"][1],
+            "q_max": state.gd_qmax.mean(),
+            "q_view_max": p_view.mean(),
+            "p_direct": per((p_direct * acting).sum(), n_act),
+            "p_view": per((p_view * acting).sum(), n_act),
+            "bias_direct": calibration[0], "bias_view": calibration[1],
+            "threshold": state.threshold,
+            "rounds_ended": (over & acting).sum(),
+            "rounds_cleared": (acting & (env.n_remaining(s2) == 0)).sum(),
+            "objects_on_table": env.n_remaining(s2).mean(),
+            "physics_errors": s2.sim.error.sum(),
+            "buffer_overflow": s2.sim.overflow.sum(),
+            "replay_size_vanet": va_buffer.size,
+            "replay_size_gdnet": gd_buffer.size,
+            "updates": n_updates,
+            "attempts": n_act,
+            "attempts_total": attempts,
+            "worlds_resetting": resetting.sum(),
+        }
+        metrics = {k: jnp.asarray(v, jnp.float32) for k, v in metrics.items()}
+        new_state = state.replace(env=s2, gdnet=gdnet, vanet=vanet, success=succ_net, vanet_replay=va_buffer,
+                                  gdnet_replay=gd_buffer, calibration=calibration, gd_grasp=gd_grasp2,
+                                  gd_qmax=gd_qmax2, key=key,
+                                  iteration=state.iteration + 1, attempts=attempts)
+        return new_state, metrics
+
+    def _run_impl(self, state: VagsTrainState, n: int):
+        return jax.lax.scan(self._iteration, state, None, length=n)
+
+    # ------------------------------------------------------------------ public
+
+    def run(self, state: VagsTrainState, n: int):
+        """Advance ``n`` iterations -> (state, metrics dict of (n,) float32 arrays).  On an
+        accelerator the input state is donated (``self.donates``): do not use it afterwards."""
+        if not isinstance(n, int) or n < 1:
+            raise ValueError(f"run: n must be a positive int, got {n!r}")
+        self.env.prepare(state.env.n_worlds)
+        return self._run_jit(_distinct_buffers(state), n)
+
+
+def final_threshold(state: VagsTrainState, vcfg: Vags) -> jax.Array:
+    """The "q" gate's threshold to keep after a stage that changed GDNet: ``vags.threshold`` when
+    set, else the ``threshold_quantile`` quantile of GDNet's largest Q over the stage's last
+    global views (GDNet's Q values move while it trains) -> () float32."""
+    return calibrated_threshold(state.gd_qmax, vcfg).reshape(())
+
+
+def _distinct_buffers(tree):
+    """``tree`` with a copy of every array that appears in it more than once (a donated
+    argument may hold each buffer once)."""
+    leaves, treedef = jax.tree.flatten(tree)
+    seen, out = set(), []
+    for x in leaves:
+        if id(x) in seen:
+            x = jnp.array(x, copy=True)
+        seen.add(id(x))
+        out.append(x)
+    return jax.tree.unflatten(treedef, out)
+
+
+def stage2(cfg: Config, key: jax.Array, gdnet: dqn.TrainState, ggcnn_params, env: Optional[VagsEnv] = None):
+    """Stage 2 as one pure function: (key, stage 1's GDNet learner, GG-CNN) -> (VANet learner,
+    success-net learner, threshold, metrics (stage2.iterations,))."""
+    stage = VagsStage(cfg, 2, env)
+    state, metrics = stage.run(stage.init(key, gdnet, ggcnn_params), cfg.stage2.iterations)
+    return state.vanet, state.success, state.threshold, metrics
+
+
+def stage3(cfg: Config, key: jax.Array, gdnet: dqn.TrainState, vanet: dqn.TrainState, success: dqn.TrainState,
+           ggcnn_params, threshold, env: Optional[VagsEnv] = None):
+    """Stage 3 as one pure function -> (GDNet, VANet and success-net learners, the "q" gate's
+    re-set threshold (``final_threshold``), metrics (stage3.iterations,))."""
+    stage = VagsStage(cfg, 3, env)
+    state, metrics = stage.run(stage.init(key, gdnet, ggcnn_params, vanet, threshold, success), cfg.stage3.iterations)
+    return state.gdnet, state.vanet, state.success, final_threshold(state, cfg.vags), metrics
+
+
+__all__ = ["VagsTrainState", "VagsStage", "METRICS", "FINITE_METRICS", "view_reward", "calibrated_threshold",
+           "final_threshold", "stage2", "stage3"]
