@@ -276,16 +276,19 @@ def main(argv=None) -> int:
             raise ValueError(f"--record-rounds {args.record_rounds} exceeds the {rounds} rounds per group")
         # ... then the rest, which needs the simulator's modules (still nothing compiled).
         from vags_jax.benchmark import protocol as E
+        from vags_jax.benchmark import metrics as M
+        from vags_jax.policies import catalog as P
+        from vags_jax.stages import rundir
 
-        if policy not in E.POLICIES:
-            raise ValueError(f"unknown policy {policy!r}; choose one of {', '.join(E.POLICIES)}")
+        if policy not in P.POLICIES:
+            raise ValueError(f"unknown policy {policy!r}; choose one of {', '.join(P.POLICIES)}")
         variables, step = None, None
         if policy == "gdnet":  # the learner, checked against the run's network config
-            _, variables, step = E.load_gdnet(args.run, args.step)
+            _, variables, step = rundir.load_gdnet(args.run, args.step)
         if policy == "vags":  # the config's gate / close-view planner against the run's networks
-            E.vags_params(networks, cfg)
+            P.vags_params(networks, cfg)
         groups = E.check_groups(groups, cfg, rounds)
-        time_model = E.MotionTimeModel.from_config(cfg)
+        time_model = M.MotionTimeModel.from_config(cfg)
         name = "vags-no-viewpoint" if args.no_viewpoint else policy
         out = args.out
         if out is None and args.run:
@@ -311,7 +314,7 @@ def main(argv=None) -> int:
     log(f"evaluating {name}{source}: groups {groups}, {rounds} rounds each, impl={cfg.sim.impl}, "
         f"devices={jax.devices()}")
     ev = E.Evaluator(cfg)
-    pol = E.make_policy(policy, cfg, variables, ggcnn_params, networks, threshold)
+    pol = P.make_policy(policy, cfg, variables, ggcnn_params, networks, threshold)
     if policy == "vags":
         pol = dataclasses.replace(pol, name=name)
     report = E.evaluate(cfg, pol, groups, rounds, args.seed, time_model, ev, log=log)
@@ -320,9 +323,9 @@ def main(argv=None) -> int:
         report["threshold"] = float(np.asarray(pol.params["threshold"]))
         extra["networks"] = networks.source
         log(f"decision threshold {report['threshold']:.4f}")
-    print(E.format_table(report))
+    print(M.format_table(report))
     if out:
-        E.save_report(report, out, cfg, extra)
+        M.save_report(report, out, cfg, extra)
         report_files.write_csv(report, os.path.splitext(out)[0] + ".csv",
                                {"threshold": report["threshold"]} if "threshold" in report else None)
         log(f"wrote {out} and {os.path.splitext(out)[0]}.csv")
@@ -330,7 +333,7 @@ def main(argv=None) -> int:
         rows = run_sweep(cfg, ev, pol, report, sweep_abs, sweep_q, groups, rounds, args.seed, time_model, log)
         print(format_sweep(rows))
         if sweep_out:
-            E.save_report({"policy": name, "rows": rows}, sweep_out, cfg, extra)
+            M.save_report({"policy": name, "rows": rows}, sweep_out, cfg, extra)
             report_files.write_sweep_csv(rows, os.path.splitext(sweep_out)[0] + ".csv")
             log(f"wrote {sweep_out} and {os.path.splitext(sweep_out)[0]}.csv")
         if args.plot:
@@ -356,6 +359,9 @@ def run_sweep(cfg, ev, pol, report, sweep_abs, sweep_q, groups, rounds, seed, ti
     import numpy as np
 
     from vags_jax.benchmark import protocol as E
+    from vags_jax.benchmark import metrics as M
+    from vags_jax.policies import catalog as P
+    from vags_jax.stages import rundir
 
     scores = np.concatenate([np.asarray(o["scores"], np.float64).ravel() for o in report["outcomes"].values()])
     scores = scores[np.isfinite(scores)]
@@ -370,8 +376,8 @@ def run_sweep(cfg, ev, pol, report, sweep_abs, sweep_q, groups, rounds, seed, ti
         r = E.evaluate(cfg, p, groups, rounds, seed, time_model, ev)
         o = r["overall"]
         log(f"sweep {kind} {'' if q is None else f'q={q:g} '}threshold {thr:.4f}: success "
-            f"{E._pct(o['grasp_success_rate'])} %, clearing {E._pct(o['clearing_rate'])} %, viewpoint "
-            f"{E._pct(o['viewpoint_rate'])} %")
+            f"{M._pct(o['grasp_success_rate'])} %, clearing {M._pct(o['clearing_rate'])} %, viewpoint "
+            f"{M._pct(o['viewpoint_rate'])} %")
         rows.append({"kind": kind, "quantile": q, "threshold": thr, "overall": o, "groups_metrics": r["groups_metrics"]})
     return rows
 
@@ -379,14 +385,17 @@ def run_sweep(cfg, ev, pol, report, sweep_abs, sweep_q, groups, rounds, seed, ti
 def format_sweep(rows: list[dict]) -> str:
     """Markdown table of a threshold sweep."""
     from vags_jax.benchmark import protocol as E
+    from vags_jax.benchmark import metrics as M
+    from vags_jax.policies import catalog as P
+    from vags_jax.stages import rundir
 
     out = ["| sweep | quantile | threshold | grasp success % | clearing % | motion number | viewpoint % | picks/hour |",
            "|---|---:|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
         o = r["overall"]
         out.append(f"| {r['kind']} | {'-' if r['quantile'] is None else format(r['quantile'], 'g')} | "
-                   f"{r['threshold']:.4f} | {E._pct(o['grasp_success_rate'])} | {E._pct(o['clearing_rate'])} | "
-                   f"{E._num(o['motion_number'])} | {E._pct(o['viewpoint_rate'])} | {E._num(o['picks_per_hour'], '{:.0f}')} |")
+                   f"{r['threshold']:.4f} | {M._pct(o['grasp_success_rate'])} | {M._pct(o['clearing_rate'])} | "
+                   f"{M._num(o['motion_number'])} | {M._pct(o['viewpoint_rate'])} | {M._num(o['picks_per_hour'], '{:.0f}')} |")
     return "\n".join(out)
 
 

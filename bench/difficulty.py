@@ -41,13 +41,16 @@ def main(argv=None) -> int:
     from vags_jax.stages import checkpoint
     from vags_jax import config as C
     from vags_jax.benchmark import protocol as E
+    from vags_jax.benchmark import metrics as M
+    from vags_jax.policies import catalog as P
+    from vags_jax.stages import rundir
 
     try:
         policies = [x.strip() for x in args.policies.split(",") if x.strip()]
         sets = [x.strip() for x in args.objects.split(",") if x.strip()]
         for x in policies:
-            if x not in E.POLICIES:
-                raise ValueError(f"unknown policy {x!r}; choose from {', '.join(E.POLICIES)}")
+            if x not in P.POLICIES:
+                raise ValueError(f"unknown policy {x!r}; choose from {', '.join(P.POLICIES)}")
         for x in sets:
             if x not in C.OBJECT_SETS:
                 raise ValueError(f"unknown object set {x!r}; choose from {', '.join(C.OBJECT_SETS)}")
@@ -56,7 +59,7 @@ def main(argv=None) -> int:
         variables = None
         if args.run:
             if "gdnet" in policies:
-                base, variables, _ = E.load_gdnet(args.run)
+                base, variables, _ = rundir.load_gdnet(args.run)
             else:
                 base = checkpoint.load_config(args.run)
         else:
@@ -75,11 +78,11 @@ def main(argv=None) -> int:
         ev = E.Evaluator(cfg)
         for policy in policies:
             t0 = time.time()
-            pol = E.make_policy(policy, cfg, variables)
-            report = E.evaluate(cfg, pol, gr, args.rounds, args.seed, E.MotionTimeModel(), ev,
+            pol = P.make_policy(policy, cfg, variables)
+            report = E.evaluate(cfg, pol, gr, args.rounds, args.seed, M.MotionTimeModel(), ev,
                                 log=lambda s: print(s, file=sys.stderr, flush=True))
             print(f"\n### objects {objects}, policy {policy} ({time.time() - t0:.0f} s)\n")
-            print(E.format_table(report), flush=True)
+            print(M.format_table(report), flush=True)
             last = report["groups_metrics"][-1]  # the largest group
             summary.append({"objects": objects, "policy": policy,
                             "success": report["overall"]["grasp_success_rate"],
@@ -87,7 +90,7 @@ def main(argv=None) -> int:
                             "clearing_largest": last["clearing_rate"], "motions_largest": last["motion_number"],
                             "seconds": time.time() - t0})
             if args.out_dir:
-                E.save_report(report, os.path.join(args.out_dir, f"{objects}_{policy}.json"), cfg,
+                M.save_report(report, os.path.join(args.out_dir, f"{objects}_{policy}.json"), cfg,
                               {"run": args.run})
     print("\n| objects | policy | success, all groups % | success at largest % | clearing at largest % | motions at largest |")
     print("|---|---|---:|---:|---:|---:|")

@@ -37,7 +37,7 @@ import numpy as np
 from timing import parse_variant, timed
 from vags_jax import config as C
 from vags_jax.env import VagsEnv
-from vags_jax.benchmark.protocol import min_width_grasp
+from vags_jax.policies.catalog import min_width_grasp
 
 
 def bench_one(cfg, n_worlds, n_objects, repeats, loop_iterations=0, only_loop=False):

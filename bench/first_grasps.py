@@ -23,7 +23,7 @@ import numpy as np
 from timing import emit_row, parse_variant
 from vags_jax import config as C
 from vags_jax.env import VagsEnv
-from vags_jax.benchmark.protocol import min_width_grasp
+from vags_jax.policies.catalog import min_width_grasp
 
 
 def run_variant(cfg: C.Config, n_worlds: int, n_objects: int, key: int) -> dict:

@@ -35,7 +35,7 @@ from vags_jax.perception import camera, heightmap, render
 from vags_jax import config as C
 from vags_jax.benchmark import images
 from vags_jax.env import VagsEnv
-from vags_jax.benchmark.protocol import highest_act, min_width_grasp
+from vags_jax.policies.catalog import highest_act, min_width_grasp
 
 MAGENTA = np.array([255, 0, 255], np.uint8)
 TABLE_GREY = np.array([40, 40, 40], np.uint8)

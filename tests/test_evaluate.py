@@ -10,6 +10,9 @@ from vags_jax.stages import checkpoint
 from vags_jax import config as C
 from vags_jax.rl import dqn, replay
 from vags_jax.benchmark import protocol as E
+from vags_jax.benchmark import metrics as M
+from vags_jax.policies import catalog as P
+from vags_jax.stages import rundir
 from vags_jax.env import EnvState
 from vags_jax.nets import init_qnet, make_qnet
 from vags_jax.stages.stage1 import Stage1State
@@ -20,14 +23,14 @@ def _outcomes(**kw):
                 travel=[1.0, 2.0, 1.5], return_travel=[0.0, 1.2, 0.4], remaining=[0, 0, 0], on_object=[2, 4, 4],
                 viewpoints=[0, 0, 0], error=[False, False, False], overflow=[False, False, False])
     base.update(kw)
-    return E.RoundOutcomes(**{k: np.asarray(v) for k, v in base.items()})
+    return M.RoundOutcomes(**{k: np.asarray(v) for k, v in base.items()})
 
 
 # ----------------------------------------------------------------------------- metrics
 
 
 def test_metrics_hand_computed():
-    m = E.summarize(_outcomes())
+    m = M.summarize(_outcomes())
     assert m["rounds"] == 3 and m["objects"] == 7 and m["attempts"] == 11 and m["successes"] == 6
     assert m["grasp_success_rate"] == pytest.approx(6 / 11)
     assert m["clearing_rate"] == pytest.approx(2 / 3)  # round 2 got 1 of 2 objects
@@ -39,34 +42,34 @@ def test_metrics_hand_computed():
     assert m["objects_lost"] == 1  # round 2: 2 objects, 1 grasped, 0 left
     assert m["attempts_per_round"] == pytest.approx(11 / 3)
     assert m["on_object_rate"] == pytest.approx(10 / 11)
-    fast = E.summarize(_outcomes(), E.MotionTimeModel(speed=1.0, capture_s=0, close_s=0, lift_s=0, place_s=0))
+    fast = M.summarize(_outcomes(), M.MotionTimeModel(speed=1.0, capture_s=0, close_s=0, lift_s=0, place_s=0))
     assert fast["picks_per_hour"] == pytest.approx(6 * 3600 / 6.1)
     assert m["viewpoint_rate"] == 0.0
     # One attempt of round 2 moved the camera first: one more motion and 0.3 m more travel.
-    v = E.summarize(_outcomes(motions=[2, 6, 4], viewpoints=[0, 1, 0], travel=[1.0, 2.3, 1.5]))
+    v = M.summarize(_outcomes(motions=[2, 6, 4], viewpoints=[0, 1, 0], travel=[1.0, 2.3, 1.5]))
     assert v["motion_number"] == pytest.approx(12 / 6) and v["viewpoint_rate"] == pytest.approx(1 / 11)
     assert v["robot_seconds"] == pytest.approx(seconds + 0.5 + 0.3 / 0.5)
 
 
 def test_metrics_pool_and_edge_cases():
     a, b = _outcomes(), _outcomes(successes=[0, 0, 0], remaining=[2, 2, 3], return_travel=[1.0, 1.0, 1.0])
-    m = E.summarize(E.RoundOutcomes.concatenate([a, b]))
+    m = M.summarize(M.RoundOutcomes.concatenate([a, b]))
     assert m["rounds"] == 6 and m["attempts"] == 22 and m["successes"] == 6
     assert m["grasp_success_rate"] == pytest.approx(6 / 22) and m["clearing_rate"] == pytest.approx(2 / 6)
-    none = E.summarize(b)
+    none = M.summarize(b)
     assert none["grasp_success_rate"] == 0.0 and none["motion_number"] is None
     assert none["picks_per_hour"] == 0.0 and none["clearing_rate"] == 0.0
-    empty = E.summarize(_outcomes(attempts=[0, 0, 0], successes=[0, 0, 0], motions=[0, 0, 0],
+    empty = M.summarize(_outcomes(attempts=[0, 0, 0], successes=[0, 0, 0], motions=[0, 0, 0],
                                   travel=[0.0] * 3, return_travel=[0.0] * 3, remaining=[2, 2, 3]))
     assert empty["grasp_success_rate"] is None and empty["picks_per_hour"] is None
     with pytest.raises(ValueError, match="speed"):
-        E.MotionTimeModel(speed=0.0)
+        M.MotionTimeModel(speed=0.0)
 
 
 def test_table_and_json_shape():
-    m = E.summarize(_outcomes())
+    m = M.summarize(_outcomes())
     report = {"groups_metrics": [{"n_objects": 2, **m}], "overall": m}
-    table = E.format_table(report).splitlines()
+    table = M.format_table(report).splitlines()
     assert len(table) == 4 and table[0].startswith("| objects") and "**overall**" in table[-1]
     assert "54.5" in table[2] and "66.7" in table[2] and "1.83" in table[2]
     json.dumps(_outcomes().to_json())
@@ -85,9 +88,9 @@ def test_bad_groups_rounds_policy(tiny_cfg):
     with pytest.raises(ValueError, match="rounds"):
         E.check_groups([1], tiny_cfg, rounds=0)
     with pytest.raises(ValueError, match="unknown policy 'greedy'.*heuristic"):
-        E.make_policy("greedy", tiny_cfg)
+        P.make_policy("greedy", tiny_cfg)
     with pytest.raises(ValueError, match="needs trained GDNet"):
-        E.make_policy("gdnet", tiny_cfg)
+        P.make_policy("gdnet", tiny_cfg)
 
 
 def test_cli_errors(tmp_path, capsys):
@@ -121,16 +124,16 @@ def test_load_gdnet_restores_only_the_learner(tmp_path):
     run = str(tmp_path / "run")
     checkpoint.save_config(run, cfg)
     checkpoint.save(run, 7, state)
-    run_cfg, variables, step = E.load_gdnet(run)
+    run_cfg, variables, step = rundir.load_gdnet(run)
     assert step == 7 and run_cfg == cfg
     assert checkpoint.tree_equal(variables["params"], learner.params)
     assert checkpoint.tree_equal(variables["batch_stats"], learner.batch_stats)
     # A config that does not describe the checkpoint is refused with a message.
     checkpoint.save_config(run, C.replace(cfg, **{"net.small_width": 16}))
     with pytest.raises(checkpoint.CheckpointError, match="different config"):
-        E.load_gdnet(run)
+        rundir.load_gdnet(run)
     with pytest.raises(checkpoint.CheckpointError, match="available steps"):
-        E.load_gdnet(run, step=3)
+        rundir.load_gdnet(run, step=3)
 
 
 # ----------------------------------------------------------------------------- policies on maps
@@ -148,7 +151,7 @@ def _bars(cfg):
 
 def test_heuristic_picks_narrow_axis_on_the_highest_object():
     cfg = C.tiny()
-    action, width = jax.jit(E.min_width_grasp, static_argnums=1)(jnp.asarray(_bars(cfg)), cfg)
+    action, width = jax.jit(P.min_width_grasp, static_argnums=1)(jnp.asarray(_bars(cfg)), cfg)
     action, width = np.asarray(action), np.asarray(width)
     R = cfg.grasp.n_rotations
     assert action[0, 0] == R // 4 and 14 <= action[0, 1] <= 17 and 5 <= action[0, 2] <= 24
@@ -163,13 +166,13 @@ def test_random_and_gdnet_policies_on_maps():
     z = jnp.zeros((3,), jnp.int32)
     state = EnvState(sim=None, color=jnp.zeros(h.shape + (3,), jnp.uint8), height=jnp.asarray(h),
                      attempts=z, successes=z, motions=z, travel=z.astype(jnp.float32))
-    act = jax.jit(E.random_act(cfg))
+    act = jax.jit(P.random_act(cfg))
     for i in range(3):
         a = np.asarray(act(None, jax.random.PRNGKey(i), state))
         assert (h[np.arange(3), a[:, 1], a[:, 2]] > 0).all() and (0 <= a[:, 0]).all() and (a[:, 0] < 16).all()
     net = make_qnet(cfg.net, "gdnet")
     variables = init_qnet(jax.random.PRNGKey(0), net, h.shape[1], h.shape[2])
-    a = np.asarray(E.make_policy("gdnet", cfg, variables).act(variables, None, state))
+    a = np.asarray(P.make_policy("gdnet", cfg, variables).act(variables, None, state))
     q = np.asarray(net.apply(variables, state.color, state.height, False))
     assert a.shape == (3, 3)
     np.testing.assert_allclose(q[np.arange(3), a[:, 0], a[:, 1], a[:, 2]], q.reshape(3, -1).max(1))
@@ -182,7 +185,7 @@ def test_random_and_gdnet_policies_on_maps():
 def tiny_eval(tiny_cfg):
     cfg = C.replace(tiny_cfg, **{"benchmark.max_attempts_extra": 1})
     ev = E.Evaluator(cfg)
-    policy = E.make_policy("heuristic", cfg)
+    policy = P.make_policy("heuristic", cfg)
     report = E.evaluate(cfg, policy, groups=(1, 2), rounds=2, seed=0, evaluator=ev)
     return cfg, ev, policy, report
 
@@ -209,7 +212,7 @@ def test_tiny_heuristic_evaluation_is_sane(tiny_eval):
         assert ((att == 2 * k + 1) | (left == 0)).all()
     overall = report["overall"]
     assert overall["attempts"] == sum(m["attempts"] for m in report["groups_metrics"])
-    print(E.format_table(report))
+    print(M.format_table(report))
 
 
 def test_tiny_evaluation_is_reproducible(tiny_eval):

@@ -9,6 +9,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from vags_jax.benchmark import metrics as M, protocol as E
+from vags_jax.policies import catalog as P
 from vags_jax.perception import camera
 from vags_jax import config as C
 from vags_jax.env import EnvState, VagsEnv, select_attempt
@@ -138,12 +140,11 @@ def test_viewpoint_attempt_counts_two_motions_and_starts_its_approach_at_the_vie
 def test_ggcnn_close_policy_counts_a_viewpoint_per_attempt(cfg):
     """The benchmark loop with ``ggcnn-close`` (an untrained GG-CNN: the mechanics, not the
     skill): every attempt moves the camera, so motions = 2 x attempts and viewpoint share 1."""
-    from vags_jax.benchmark import protocol as E
     from vags_jax.nets.ggcnn import init_ggcnn
 
     ecfg = C.replace(cfg, **{"benchmark.max_attempts_extra": 1})
     params = init_ggcnn(jax.random.PRNGKey(3), size=ecfg.ggcnn.input_size)
-    policy = E.make_policy("ggcnn-close", ecfg, ggcnn_params=params)
+    policy = P.make_policy("ggcnn-close", ecfg, ggcnn_params=params)
     ev = E.Evaluator(ecfg)
     # Two worlds, the tall and the flat block apart (a scripted scene: no reset to compile).
     state = _scene(ev.env, [[[0.08, -0.05, 0.05], [-0.06, 0.07, 0.0125]]] * 2, [[True, True]] * 2)
@@ -152,16 +153,14 @@ def test_ggcnn_close_policy_counts_a_viewpoint_per_attempt(cfg):
     assert (out.attempts >= 1).all() and (out.attempts <= 2 * 2 + 1).all()
     assert (out.motions == 2 * out.attempts).all()
     assert (out.viewpoints == out.attempts).all()
-    m = E.summarize(out)
+    m = M.summarize(out)
     assert m["viewpoint_rate"] == 1.0
 
 
 def test_ggcnn_policies_need_parameters(cfg):
-    from vags_jax.benchmark import protocol as E
-
     for name in ("ggcnn", "ggcnn-close"):
         with pytest.raises(ValueError, match="needs trained GG-CNN parameters"):
-            E.make_policy(name, cfg)
+            P.make_policy(name, cfg)
 
 
 def test_ggcnn_grasp_refuses_a_wrong_depth_shape(cfg):

@@ -20,6 +20,7 @@ import numpy as np
 
 from vags_jax.perception import camera
 from vags_jax.config import Config
+from vags_jax.env import where_worlds
 from vags_jax.policies.decision import VagsNets
 from vags_jax.ggcnn.planner import network_input
 from vags_jax.ggcnn.process import postprocess
@@ -53,8 +54,6 @@ def record_rounds(cfg: Config, evaluator, params: dict, seed: int, groups: Seque
     writes their pictures under ``out_dir``/objects<k>/ -> the written paths."""
     if not 1 <= rounds <= bench_rounds:
         raise ValueError(f"record_rounds: rounds must be in 1..{bench_rounds} (the benchmark's rounds), got {rounds}")
-    from vags_jax.env import where_worlds
-
     env = evaluator.env
     B = rounds * len(groups)
     state, k_loop = evaluator.reset_groups(seed, groups, bench_rounds, rounds)

@@ -26,7 +26,6 @@ bounds on sizes where memory or int32 indices bite (``MAX_*`` below).  ``replace
 """
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Optional

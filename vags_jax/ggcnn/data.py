@@ -61,6 +61,7 @@ import numpy as np
 from vags_jax.perception import camera
 from vags_jax import config as config_lib
 from vags_jax.config import Config
+from vags_jax.env import VagsEnv
 from vags_jax.ggcnn.planner import image_to_world, network_input
 from vags_jax.ggcnn.labels import GraspCandidates
 from vags_jax.sim.simulator import SimState
@@ -287,8 +288,6 @@ class DataMaker:
     """
 
     def __init__(self, cfg: Config, env=None):
-        from vags_jax.env import VagsEnv
-
         self.cfg = cfg
         self.key = program_key(cfg)
         self.env = VagsEnv(cfg) if env is None else env

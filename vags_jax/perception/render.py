@@ -34,6 +34,8 @@ import jax.numpy as jnp
 import mujoco
 import numpy as np
 from flax import struct
+from mujoco import mjx
+from scipy.spatial import ConvexHull
 
 from vags_jax.perception import camera as cam_lib
 from vags_jax.config import Camera, DepthNoise
@@ -113,8 +115,6 @@ def _mesh_halfspaces(mj_model, mesh_id: int, name: str, tol: float = 1e-6):
     convex = np.all(verts @ n.T <= c + 1e-5 * max(scale, 1e-3))
     if not convex:
         warnings.warn(f"render: mesh geom {name!r} is not convex; rendering its convex hull")
-        from scipy.spatial import ConvexHull
-
         hull = ConvexHull(verts)
         n, c = hull.equations[:, :3], -hull.equations[:, 3]
     # Merge coplanar triangles.
@@ -612,8 +612,7 @@ class WarpGeometry:
 
     @staticmethod
     def create(mj_model, mask, cam_cfg: Camera, n_worlds: int) -> "WarpGeometry":
-        from mujoco import mjx
-        import mujoco.mjx.warp as mjxw
+        import mujoco.mjx.warp as mjxw  # optional extra: warp-lang
 
         if not mjxw.WARP_INSTALLED:
             raise RuntimeError(
@@ -682,8 +681,6 @@ class WarpGeometry:
         """The Warp renderer's own part of `render`: (depth (B, h, w) float32 m, 0 = nothing
         hit, seg (B, h, w) geom id or -1).  geom_size: optional (B, ngeom, 3) per-world sizes,
         passed to MuJoCo Warp as a batched model field (its BVH and ray tests read it)."""
-        from mujoco import mjx
-
         b = geom_xpos.shape[0]
         if b != self.n_worlds:
             raise ValueError(f"warp render context was made for {self.n_worlds} worlds, got {b}")

@@ -2,7 +2,7 @@
 
 * ``decision``: VAGS's decision (the gate, GDNet's direct grasp, VANet's viewpoint and the
   close-view planner), used by stages 2-3 and by the ``vags`` benchmark policy.
-* ``base``: the ``Policy`` interface and ``make_policy`` by name.
-* ``scripted``: ``random``, ``highest``, ``heuristic`` (minimum-width grasp).
-* ``learned``: ``gdnet``, ``vags``, ``ggcnn`` and ``ggcnn-close``.
+* ``catalog``: the ``Policy`` interface and every benchmark policy by name (``make_policy``):
+  scripted ``random``, ``highest``, ``heuristic``; learned ``gdnet``, ``vags``, ``ggcnn``,
+  ``ggcnn-close``.
 """

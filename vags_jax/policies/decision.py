@@ -30,6 +30,9 @@ from flax import struct
 from vags_jax import batching
 from vags_jax.perception import view_fusion
 from vags_jax.config import Config, Vags
+from vags_jax.ggcnn.planner import predict_grasp
+from vags_jax.nets import make_qnet
+from vags_jax.nets.ggcnn import GGCNN
 from vags_jax.env import CameraImage, EnvState, VagsEnv, select_attempt
 
 
@@ -154,9 +157,6 @@ def close_view_grasp(cfg: Config, env: VagsEnv, state: EnvState, view: jax.Array
         position, yaw = env.grasp_pose(state.replace(height=height), action[:, 1:], action[:, 0])
         close = CloseView(image=image, color=color, height=height, seen=seen, action=action)
     else:
-        from vags_jax.ggcnn.planner import predict_grasp
-        from vags_jax.nets.ggcnn import GGCNN
-
         model = GGCNN() if ggcnn_model is None else ggcnn_model
         grasp, img = predict_grasp(model, ggcnn_params, image.depth, pose, cfg.camera, cfg.ggcnn,
                                    cfg.grasp.depth_below_surface)
@@ -186,9 +186,6 @@ class VagsNets:
     ``"threshold"`` (() float32, compared with the gate's score)."""
 
     def __init__(self, cfg: Config):
-        from vags_jax.nets import make_qnet
-        from vags_jax.nets.ggcnn import GGCNN
-
         self.cfg = cfg
         self.gdnet, self.vanet = make_qnet(cfg.net, "gdnet"), make_qnet(cfg.net, "vanet")
         self.ggcnn = GGCNN()

@@ -18,6 +18,7 @@ import jax.numpy as jnp
 import optax
 
 from vags_jax.config import DQN
+from vags_jax.rl import replay
 
 PyTree = Any
 
@@ -230,8 +231,6 @@ def learn_from_replay(update: Callable, learner: TrainState, buffer, key: jax.Ar
     none until the buffer holds ``learning_starts`` transitions; ``update`` from
     ``make_update_step``, ``cfg`` the whole Config (its ``dqn`` and ``replay`` sections).
     Returns (learner, buffer, (mean loss, mean |td|) (2,), updates done ())."""
-    from vags_jax.rl import replay
-
     ready = buffer.size >= max(learning_starts, 1)
 
     def one(carry, k):

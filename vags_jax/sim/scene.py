@@ -44,6 +44,7 @@ import os
 from dataclasses import dataclass
 from typing import Optional
 
+import jax.numpy as jnp
 import mujoco
 import numpy as np
 
@@ -235,7 +236,6 @@ def sized_body_physics(kind, size, density: float):
     with compiled models).  Rows of KIND_FIXED bodies are meaningless (callers keep the
     compiled values there).
     """
-    import jax.numpy as jnp
 
     s0, s1, s2 = size[..., 0], size[..., 1], size[..., 2]
     box, cap = kind == KIND_BOX, kind == KIND_CAPSULE

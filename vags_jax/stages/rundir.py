@@ -27,7 +27,10 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
+from vags_jax.ggcnn import data as ggcnn_data
 from vags_jax.stages import checkpoint
+from vags_jax.stages import ggcnn as ggcnn_stage
+from vags_jax.stages.stage23 import final_threshold
 from vags_jax.rl import dqn
 from vags_jax.config import Config
 from vags_jax.nets import init_qnet, make_qnet
@@ -109,8 +112,6 @@ def stage1_gdnet(run_dir: str, cfg: Config, for_what: str = "stage 2") -> dqn.Tr
 
 def ggcnn_params(run_dir: str, cfg: Config, for_what: str = "stage 2"):
     """GG-CNN's parameters of the run ({"params"})."""
-    from vags_jax.stages import ggcnn as ggcnn_stage
-
     _need(run_dir, cfg, "ggcnn", for_what)
     params, _ = ggcnn_stage.load_ggcnn(run_dir)
     return params
@@ -155,8 +156,6 @@ def save_networks(run_dir: str, name: str, step: int, state, cfg: Config) -> str
     """Writes the GDNet, VANet and success-net variables and the "q" gate's threshold of a
     ``VagsTrainState`` at ``step`` to ``networks_dir`` -> that directory.  After stage 3 the
     threshold is re-set on its last views (``vags_stages.final_threshold``): GDNet changed."""
-    from vags_jax.stages.stage23 import final_threshold
-
     as_vars = lambda ts: {"params": ts.params, "batch_stats": ts.batch_stats}  # noqa: E731
     thr = final_threshold(state, cfg.vags) if name == "stage3" else state.threshold
     d = networks_dir(run_dir, name)
@@ -176,8 +175,6 @@ def load_vags(run_dir: str, cfg: Optional[Config] = None, step: Optional[int] = 
     when stage 3 saved any, else stage 2's; read from the stage's ``networks/`` directory, and
     GG-CNN from RUN/ggcnn (None when the run has none).  CheckpointError (one line, what to
     run) when there are none."""
-    from vags_jax.stages import ggcnn as ggcnn_stage
-
     cfg = checkpoint.load_config(run_dir) if cfg is None else cfg
     found = [n for n in ("stage3", "stage2") if os.path.isdir(networks_dir(run_dir, n))
              and checkpoint.checkpoint_steps(networks_dir(run_dir, n))]
@@ -215,9 +212,6 @@ def _saved_without(run_dir: str, section: str, field: str) -> bool:
 def ggcnn_reusable(run_dir: str, cfg: Config) -> Optional[str]:
     """For a new pipeline in ``run_dir``: None when it holds no GG-CNN, or one trained on the
     same data and GG-CNN settings as ``cfg`` (it is reused); else a message saying why not."""
-    from vags_jax.ggcnn import data as ggcnn_data
-    from vags_jax.stages import ggcnn as ggcnn_stage
-
     gdir = ggcnn_stage.ggcnn_dir(run_dir)
     if not (os.path.isdir(gdir) and checkpoint.checkpoint_steps(gdir)):
         return None
@@ -230,6 +224,22 @@ def ggcnn_reusable(run_dir: str, cfg: Config) -> Optional[str]:
     return None
 
 
+
+def load_gdnet(run_dir: str, step: Optional[int] = None):
+    """Restores only the GDNet learner of a stage-1 run -> ``(run_cfg, variables, step)``.
+
+    ``variables`` = ``{"params", "batch_stats"}`` of the online network.  Checkpoints store each
+    part of ``Stage1State`` under its name, so only ``learner`` is read: the worlds and the replay
+    buffer (gigabytes at scale) are neither built nor loaded.
+    Raises ``checkpoint.CheckpointError`` (a ValueError) with what to fix.
+    """
+    cfg = checkpoint.load_config(run_dir) if os.path.isdir(run_dir) else None
+    if cfg is None:
+        raise checkpoint.CheckpointError(f"run directory {run_dir!r} does not exist")
+    learner, step = checkpoint.restore_part(run_dir, "learner", learner_target(cfg, "gdnet"), step)
+    return cfg, {"params": learner.params, "batch_stats": learner.batch_stats}, step
+
+
 __all__ = ["ORDER", "ALIASES", "DESCRIPTION", "canonical", "stage_dir", "total", "progress", "stage_key",
            "learner_target", "stage1_gdnet", "ggcnn_params", "stage2_result", "VagsNetworks", "load_vags",
-           "networks_dir", "save_networks", "ggcnn_reusable"]
+           "networks_dir", "save_networks", "ggcnn_reusable", "load_gdnet"]

@@ -1,0 +1,206 @@
+"""Benchmark metrics: per-round outcomes, the robot-time model and the report table.
+
+Per group and ``overall`` (pooled over every round of every group), ``summarize`` gives:
+
+* grasp success rate = successful grasps / grasp attempts;
+* scene clearing rate = cleared rounds / rounds, a round is *cleared* when every one of its
+  objects was grasped (objects pushed off the workspace do not count as cleared);
+* motion number = camera-or-gripper motions / successfully grasped objects (1 per direct grasp,
+  2 per grasp after a viewpoint move);
+* picks per hour = successful grasps / hours of modelled robot time (``MotionTimeModel``);
+
+and diagnostics beside them: the share of attempts that moved the camera first
+(``viewpoint_rate``), attempts per round, the share aimed at an object cell
+(``on_object_rate``), objects lost (left the table without a grasp), physics errors.
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+from dataclasses import dataclass
+from typing import Any, Optional, Sequence
+
+import jax
+import numpy as np
+from flax import struct
+
+from vags_jax.config import Config, to_dict
+
+
+# ----------------------------------------------------------------------------- time model
+
+
+@dataclass(frozen=True)
+class MotionTimeModel:
+    """Modelled robot time of a round, the same for every method (picks per hour).
+
+    Per round (sums over its attempts; counters from ``RoundOutcomes``)::
+
+        seconds = motions * capture_s                     # one RGB-D capture per motion
+                + (travel + return_travel) / speed         # every commanded Cartesian move
+                + attempts * (close_s + lift_s)            # closing the jaw; lift overhead
+                + successes * place_s                      # to the bin, release, back
+
+    ``travel`` is what ``EnvState.travel`` accumulates: the camera moves before the grasp (global
+    pose -> viewpoint, for attempts that adjust the viewpoint), the approach (last capture pose
+    -> 15 cm above the grasp point), descend, lift.  ``return_travel`` (failed attempts only) is the straight line
+    from the lifted gripper back to the global capture pose; after a success ``place_s`` covers
+    the trip to the bin and back.  ``lift_s`` is the fixed part of a lift (grip check, slow
+    start with a load) on top of its distance / speed.  Defaults are round numbers for a UR5 +
+    RG2 cell moving at 0.5 m/s; they are not measured on a robot.  The values come from the
+    config's ``benchmark`` section (``from_config``).
+    """
+
+    speed: float = 0.5  # m/s, Cartesian gripper speed
+    capture_s: float = 0.5  # s per motion: RGB-D capture + inference at the reached pose
+    close_s: float = 0.5  # s per attempt: closing the gripper
+    lift_s: float = 0.5  # s per attempt: fixed lift overhead
+    place_s: float = 2.0  # s per success: carry to the bin, release, return to the capture pose
+
+    @staticmethod
+    def from_config(cfg: Config) -> "MotionTimeModel":
+        """The time model of the config's ``benchmark`` section."""
+        b = cfg.benchmark
+        return MotionTimeModel(speed=b.speed, capture_s=b.capture_s, close_s=b.close_s, lift_s=b.lift_s,
+                               place_s=b.place_s)
+
+    def __post_init__(self):
+        if not self.speed > 0:
+            raise ValueError(f"MotionTimeModel.speed must be > 0 m/s, got {self.speed}")
+        for name in ("capture_s", "close_s", "lift_s", "place_s"):
+            if getattr(self, name) < 0:
+                raise ValueError(f"MotionTimeModel.{name} must be >= 0 seconds, got {getattr(self, name)}")
+
+    def round_seconds(self, attempts, successes, motions, travel, return_travel) -> np.ndarray:
+        """(R,) modelled seconds of R rounds from their (R,) counters (numpy or jnp)."""
+        return (np.asarray(motions) * self.capture_s
+                + (np.asarray(travel) + np.asarray(return_travel)) / self.speed
+                + np.asarray(attempts) * (self.close_s + self.lift_s)
+                + np.asarray(successes) * self.place_s)
+
+
+# ----------------------------------------------------------------------------- outcomes, metrics
+
+
+@struct.dataclass
+class RoundOutcomes:
+    """Per-round results of R rounds, every field (R,) (numpy after ``Evaluator.run_group``).
+
+    n_objects: objects at the start; attempts / successes / motions: counts; travel: commanded
+    gripper travel (m); return_travel: return moves after failed attempts (m); remaining:
+    objects still on the table at the end; on_object: attempts aimed at an object cell of the
+    global height map (diagnostic: a grasp aimed at bare table cannot succeed); viewpoints:
+    attempts that moved the camera to a viewpoint before grasping (motions > 1); error: physics
+    failure (NaN / tunnelling) ended the round; overflow: a warp contact buffer was full at some step (results unreliable).
+    scores: (R, T) the planner's decision value of each attempt (``Attempt.score``; VAGS: GDNet's
+    largest Q), NaN after the round's last attempt or for planners without one.
+    """
+
+    n_objects: Any
+    attempts: Any
+    successes: Any
+    motions: Any
+    travel: Any
+    return_travel: Any
+    remaining: Any
+    on_object: Any
+    viewpoints: Any
+    error: Any
+    overflow: Any
+    scores: Any = None
+
+    @property
+    def cleared(self) -> np.ndarray:
+        """(R,) bool: every object of the round was grasped."""
+        return np.asarray(self.successes) >= np.asarray(self.n_objects)
+
+    @property
+    def lost(self) -> np.ndarray:
+        """(R,) objects that left the table without being grasped (pushed off, fell through)."""
+        return np.asarray(self.n_objects) - np.asarray(self.successes) - np.asarray(self.remaining)
+
+    @staticmethod
+    def concatenate(parts: Sequence["RoundOutcomes"]) -> "RoundOutcomes":
+        return jax.tree.map(lambda *xs: np.concatenate([np.asarray(x) for x in xs]), *parts)
+
+    def to_json(self) -> dict:
+        return {f.name: np.asarray(getattr(self, f.name)).tolist() for f in dataclasses.fields(self)
+                if getattr(self, f.name) is not None}
+
+
+def _ratio(num: float, den: float) -> Optional[float]:
+    return float(num) / float(den) if den > 0 else None
+
+
+def summarize(out: RoundOutcomes, time_model: MotionTimeModel = MotionTimeModel()) -> dict:
+    """Benchmark metrics of a set of rounds (a group, or all groups pooled for ``overall``).
+
+    Ratios whose denominator is 0 (no attempts, no successes, no time) are None.
+    """
+    attempts = int(np.sum(out.attempts))
+    successes = int(np.sum(out.successes))
+    motions = int(np.sum(out.motions))
+    seconds = float(np.sum(time_model.round_seconds(out.attempts, out.successes, out.motions,
+                                                    out.travel, out.return_travel)))
+    rounds = int(np.size(out.n_objects))
+    return {
+        "rounds": rounds,
+        "objects": int(np.sum(out.n_objects)),
+        "attempts": attempts,
+        "successes": successes,
+        "motions": motions,
+        "grasp_success_rate": _ratio(successes, attempts),
+        "clearing_rate": _ratio(int(np.sum(out.cleared)), rounds),
+        "motion_number": _ratio(motions, successes),
+        "picks_per_hour": _ratio(successes, seconds / 3600.0),
+        "robot_seconds": seconds,
+        "attempts_per_round": _ratio(attempts, rounds),
+        "on_object_rate": _ratio(int(np.sum(out.on_object)), attempts),
+        "viewpoint_rate": _ratio(int(np.sum(out.viewpoints)), attempts),
+        "objects_lost": int(np.sum(out.lost)),
+        "physics_errors": int(np.sum(out.error)),
+        "buffer_overflows": int(np.sum(out.overflow)),
+    }
+
+
+# ----------------------------------------------------------------------------- report
+
+
+def _pct(x) -> str:
+    return "-" if x is None else f"{100 * x:.1f}"
+
+
+def _num(x, fmt="{:.2f}") -> str:
+    return "-" if x is None else fmt.format(x)
+
+
+def format_table(report: dict) -> str:
+    """Markdown table: one row per group and one for the pooled overall."""
+    head = ("| objects | rounds | attempts | successes | grasp success % | clearing % | motion number "
+            "| picks/hour | viewpoint % | attempts/round | on object % | lost | errors |")
+    rows = [head, "|" + "|".join(["---:"] * (head.count("|") - 1)) + "|"]
+
+    def row(name, m):
+        return (f"| {name} | {m['rounds']} | {m['attempts']} | {m['successes']} | "
+                f"{_pct(m['grasp_success_rate'])} | {_pct(m['clearing_rate'])} | {_num(m['motion_number'])} | "
+                f"{_num(m['picks_per_hour'], '{:.0f}')} | {_pct(m.get('viewpoint_rate'))} | "
+                f"{_num(m['attempts_per_round'], '{:.1f}')} | "
+                f"{_pct(m['on_object_rate'])} | {m['objects_lost']} | {m['physics_errors']} |")
+
+    for m in report["groups_metrics"]:
+        rows.append(row(str(m["n_objects"]), m))
+    rows.append(row("**overall**", report["overall"]))
+    return "\n".join(rows)
+
+
+def save_report(report: dict, path: str, cfg: Optional[Config] = None, extra: Optional[dict] = None) -> None:
+    """Writes the report (plus the config and ``extra`` metadata) as JSON."""
+    data = dict(report)
+    if cfg is not None:
+        data["config"] = to_dict(cfg)
+    if extra:
+        data.update(extra)
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    with open(path, "w") as f:
+        json.dump(data, f, indent=1)
