@@ -36,15 +36,21 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import math
 import os
 import sys
 
+import jax
+import numpy as np
+
 from vags_jax import cli
+from vags_jax.benchmark import metrics as M
+from vags_jax.benchmark import protocol as E
+from vags_jax.benchmark import reports, requests, sweep
+from vags_jax.benchmark.record_rounds import record_rounds
+from vags_jax.policies import catalog as P
 
 PROG = "eval.py"
-MAX_GROUP = 1000  # object counts above this are refused while parsing --groups
 
 
 def parse_args(argv=None):
@@ -94,219 +100,15 @@ def parse_args(argv=None):
     return p.parse_args(argv)
 
 
-def parse_groups(text: str) -> list[int]:
-    """"1,2,3" / "1-10" / "1-3,5" -> sorted unique ints."""
-    out: list[int] = []
-    try:
-        for part in text.split(","):
-            part = part.strip()
-            if "-" in part:
-                a, b = part.split("-", 1)
-                a, b = int(a), int(b)
-                if b < a or b > MAX_GROUP:
-                    raise ValueError
-                out.extend(range(a, b + 1))
-            else:
-                out.append(int(part))
-    except ValueError:
-        raise ValueError(f"--groups {text!r}: expected object counts like 1,2,3 or 1-10") from None
-    return sorted(set(out))
-
-
-def check_rounds_fit(cfg, rounds: int, n_groups: int = 1) -> None:
-    """rounds x groups worlds run at once: their Q maps must fit (as stage1.n_worlds, config.py)."""
-    from vags_jax import config as C
-
-    px = cfg.workspace.heightmap_px
-    need = 2 * rounds * n_groups * cfg.net.n_rotations * px * px
-    if need > C.MAX_DEVICE_BYTES:
-        raise ValueError(f"--rounds {rounds:,} x {n_groups} groups = {rounds * n_groups:,} worlds (every group "
-                         f"plays in one batch) need Q maps of {cfg.net.n_rotations} x {px} x {px} "
-                         f"each, {need / 2**30:,.0f} GiB at 2 bytes per value, more than "
-                         f"{C.MAX_DEVICE_BYTES // 2**30} GiB; lower --rounds")
-
-
-def parse_sweep(text: str, flag: str, lo=None, hi=None) -> list[float]:
-    """"A:B:STEP" -> [A, A + STEP, ..., B] (rounded to 10 decimals; at most 1000 values)."""
-    import math
-
-    parts = text.split(":")
-    try:
-        if len(parts) != 3:
-            raise ValueError
-        a, b, step = (float(x) for x in parts)
-        if not all(math.isfinite(v) for v in (a, b, step)):
-            raise ValueError
-    except ValueError:
-        raise ValueError(f"{flag} {text!r}: expected START:STOP:STEP, e.g. 1.70:1.80:0.01") from None
-    if step <= 0 or b < a:
-        raise ValueError(f"{flag} {text!r}: STEP must be > 0 and STOP >= START")
-    n = int(round((b - a) / step)) + 1
-    if n > 1000:
-        raise ValueError(f"{flag} {text!r} gives {n} values; at most 1000")
-    values = [round(min(a + i * step, b), 10) for i in range(n)]
-    if (lo is not None and values[0] < lo) or (hi is not None and values[-1] > hi):
-        raise ValueError(f"{flag} {text!r}: values must lie in [{lo}, {hi}]")
-    return values
-
-
-def run_has_vags(run: str) -> bool:
-    from vags_jax.stages import checkpoint, rundir as pipeline
-
-    return any(os.path.isdir(pipeline.networks_dir(run, n)) and checkpoint.checkpoint_steps(pipeline.networks_dir(run, n))
-               for n in ("stage2", "stage3"))
-
-
 def main(argv=None) -> int:
     args = parse_args(argv)  # bad flags: one line, exit code 2
-    from vags_jax import config as C
-
-    ggcnn_params = networks = None
     try:
-        # Checks with light imports first, so a bad input is refused in about a second ...
-        if args.run is not None and args.run and os.path.isdir(args.run):
-            policy = args.policy or ("vags" if run_has_vags(args.run) else "gdnet")
-        else:
-            policy = args.policy or ("gdnet" if args.run else "heuristic")
-        if policy in ("vags", "gdnet", "ggcnn", "ggcnn-close") and not args.run:
-            raise ValueError(f"policy {policy} needs --run RUN_DIR (a run written by train.py)")
-        vags_only = [f for f, v in (("--threshold", args.threshold is not None), ("--no-viewpoint", args.no_viewpoint),
-                                    ("--threshold-sweep", args.threshold_sweep), ("--quantile-sweep", args.quantile_sweep),
-                                    ("--record", args.record)) if v]
-        if vags_only and policy != "vags":
-            raise ValueError(f"{vags_only[0]} is for --policy vags, not {policy}")
-        if args.no_viewpoint and (args.threshold is not None or args.threshold_sweep or args.quantile_sweep):
-            raise ValueError("--no-viewpoint fixes the threshold at -inf: drop --threshold and the sweeps")
-        if args.threshold is not None and not math.isfinite(args.threshold):
-            raise ValueError(f"--threshold must be a finite number, got {args.threshold}")
-        sweep_abs = parse_sweep(args.threshold_sweep, "--threshold-sweep") if args.threshold_sweep else []
-        sweep_q = parse_sweep(args.quantile_sweep, "--quantile-sweep", 0.0, 1.0) if args.quantile_sweep else []
-        if args.compare and not args.plot:
-            raise ValueError("--compare adds reports to --plot: give --plot PATH.png")
-        compare = {}
-        for path in args.compare:
-            try:
-                with open(path, encoding="utf-8") as f:
-                    rep_ = json.load(f)
-                label = rep_["policy"]
-                rep_["groups_metrics"], rep_["overall"]  # noqa: B018 (the keys the plot reads)
-            except (OSError, ValueError, KeyError, TypeError) as e:
-                raise ValueError(f"--compare {path}: not a report written by eval.py ({cli.first_line(e)})") from None
-            compare[label if label not in compare else f"{label} ({path})"] = rep_
-        if args.plot:
-            cli.check_writable_file(args.plot, "--plot")
-            from vags_jax.benchmark import reports as report_files
-
-            report_files.check_plot_available()
-        if args.record:
-            if os.path.exists(args.record) and not os.path.isdir(args.record):
-                raise ValueError(f"--record {args.record!r} is a file; give a directory for the pictures")
-            cli._check_parent_writable(os.path.join(args.record, "x"), "--record")
-        if args.run and args.config:
-            raise ValueError("--run uses the run's own config.json; drop --config (use --set to override)")
-        if args.run is not None and not args.run:
-            raise ValueError("--run must not be empty")
-        if args.run and os.path.exists(args.run) and not os.path.isdir(args.run):
-            raise ValueError(f"--run {args.run!r} is a file; give the run directory train.py wrote")
-        if args.run and not os.path.isdir(args.run):
-            raise ValueError(f"run directory {args.run!r} does not exist")
-        if args.step is not None and policy not in ("gdnet", "vags"):
-            raise ValueError(f"--step selects a gdnet or vags checkpoint; policy {policy!r} uses none: drop --step")
-        if args.out is not None:
-            cli.check_writable_file(args.out, "--out")
-        groups = None if args.groups is None else parse_groups(args.groups)
-        overrides = C.parse_overrides(args.set)
-        if args.speed is not None:
-            if "benchmark.speed" in overrides:
-                raise ValueError("give the speed once: --speed or --set benchmark.speed=...")
-            overrides["benchmark.speed"] = args.speed
-        ggcnn_cfg = None
-        if args.run:
-            from vags_jax.stages import checkpoint
-
-            if policy == "vags":  # no stage 2/3 networks, no GG-CNN, damaged files
-                from vags_jax.stages import rundir as pipeline
-
-                networks = pipeline.load_vags(args.run, step=args.step)
-                if networks.ggcnn is not None:
-                    ggcnn_cfg = checkpoint.load_config(os.path.join(args.run, "ggcnn"))
-            if policy in ("ggcnn", "ggcnn-close"):  # no GG-CNN in the run, damaged files
-                from vags_jax.stages.ggcnn import ggcnn_dir, load_ggcnn
-
-                ggcnn_params, _ = load_ggcnn(args.run)
-                ggcnn_cfg = checkpoint.load_config(ggcnn_dir(args.run))
-            # A run that trained only GG-CNN has its config in RUN/ggcnn/.
-            gg_only = (not os.path.exists(os.path.join(args.run, "config.json"))
-                       and os.path.isfile(os.path.join(args.run, "ggcnn", "config.json")))
-            if gg_only and policy == "gdnet":
-                raise ValueError(f"run {args.run} holds only a GG-CNN ({args.run}/ggcnn): evaluate it with "
-                                 f"--policy ggcnn or ggcnn-close, or train GDNet into it with "
-                                 f"python train.py --out {args.run}")
-            if gg_only:
-                run_cfg = ggcnn_cfg if ggcnn_cfg is not None else checkpoint.load_config(os.path.join(args.run, "ggcnn"))
-            else:
-                run_cfg = checkpoint.load_config(args.run)  # missing / damaged config.json
-            if policy == "gdnet":  # missing step, damaged files
-                checkpoint.read(args.run, args.step, parts=["learner"])
-        else:
-            run_cfg = C.preset(args.config or "tiny")
-        scene_over = {"legacy": C.LEGACY_SCENES, "edge": C.EDGE_SCENES}.get(args.scenes, {})
-        scene_over = dict(scene_over)
-        if args.objects:
-            scene_over.update({"scene.shapes": C.object_pool(args.objects, run_cfg.scene.pool_size),
-                               "scene.copies_per_shape": 1})
-        cfg = C.replace(run_cfg, **scene_over, **overrides)
-        from vags_jax.sim import scene
-
-        scene.build_spec(cfg)  # the scene's own checks (shape names), in milliseconds
-        if policy in ("gdnet", "vags") and (cfg.net != run_cfg.net or cfg.workspace != run_cfg.workspace):
-            raise ValueError("--set must not change net.* or workspace.*: the trained GDNet needs the "
-                             "network and heightmaps it was trained with")
-        if ggcnn_cfg is not None and (
-                (cfg.ggcnn.input_size, cfg.ggcnn.crop_size) != (ggcnn_cfg.ggcnn.input_size, ggcnn_cfg.ggcnn.crop_size)
-                or (cfg.camera.width, cfg.camera.height, cfg.camera.fx, cfg.camera.fy)
-                != (ggcnn_cfg.camera.width, ggcnn_cfg.camera.height, ggcnn_cfg.camera.fx, ggcnn_cfg.camera.fy)):
-            raise ValueError("the evaluation config has another ggcnn.input_size / crop_size or camera image size "
-                             "or focal length than the GG-CNN was trained with (RUN/ggcnn/config.json): it needs "
-                             "the image scale it was trained on")
-        rounds = cfg.benchmark.rounds if args.rounds is None else args.rounds
-        groups = C.benchmark_groups(cfg) if groups is None else groups
-        check_rounds_fit(cfg, rounds, len(groups))
-        if args.record and args.record_rounds > rounds:
-            raise ValueError(f"--record-rounds {args.record_rounds} exceeds the {rounds} rounds per group")
-        # ... then the rest, which needs the simulator's modules (still nothing compiled).
-        from vags_jax.benchmark import protocol as E
-        from vags_jax.benchmark import metrics as M
-        from vags_jax.policies import catalog as P
-        from vags_jax.stages import rundir
-
-        if policy not in P.POLICIES:
-            raise ValueError(f"unknown policy {policy!r}; choose one of {', '.join(P.POLICIES)}")
-        variables, step = None, None
-        if policy == "gdnet":  # the learner, checked against the run's network config
-            _, variables, step = rundir.load_gdnet(args.run, args.step)
-        if policy == "vags":  # the config's gate / close-view planner against the run's networks
-            P.vags_params(networks, cfg)
-        groups = E.check_groups(groups, cfg, rounds)
-        time_model = M.MotionTimeModel.from_config(cfg)
-        name = "vags-no-viewpoint" if args.no_viewpoint else policy
-        out = args.out
-        if out is None and args.run:
-            tag = "".join(f"_{t}" for t in (args.objects, args.scenes) if t)
-            out = os.path.join(args.run, f"eval_{name}{tag}" + (f"_step{step}" if step is not None else "") + ".json")
-            cli.check_writable_file(out, "--run")
-        sweep_out = None
-        if sweep_abs or sweep_q:
-            sweep_out = os.path.splitext(out)[0] + "_sweep.json" if out else None
+        plan = requests.prepare_eval(args)  # every input, before anything is compiled
     except ValueError as e:  # includes CheckpointError and config validation
         return cli.fail(PROG, e)
-
-    import jax
-
-    import numpy as np
-
-    from vags_jax.benchmark import reports as report_files
-
+    policy, name, cfg, groups, rounds = plan.policy, plan.name, plan.cfg, plan.groups, plan.rounds
+    networks, step, out, sweep_out, compare = plan.networks, plan.step, plan.out, plan.sweep_out, plan.compare
+    sweep_abs, sweep_q, time_model = plan.sweep_abs, plan.sweep_q, plan.time_model
     log = lambda s: print(s, file=sys.stderr, flush=True)  # noqa: E731
     threshold = -math.inf if args.no_viewpoint else args.threshold
     source = f" ({args.run}, checkpoint {step})" if step is not None else (
@@ -314,7 +116,7 @@ def main(argv=None) -> int:
     log(f"evaluating {name}{source}: groups {groups}, {rounds} rounds each, impl={cfg.sim.impl}, "
         f"devices={jax.devices()}")
     ev = E.Evaluator(cfg)
-    pol = P.make_policy(policy, cfg, variables, ggcnn_params, networks, threshold)
+    pol = P.make_policy(policy, cfg, plan.variables, plan.ggcnn_params, networks, threshold)
     if policy == "vags":
         pol = dataclasses.replace(pol, name=name)
     report = E.evaluate(cfg, pol, groups, rounds, args.seed, time_model, ev, log=log)
@@ -326,77 +128,30 @@ def main(argv=None) -> int:
     print(M.format_table(report))
     if out:
         M.save_report(report, out, cfg, extra)
-        report_files.write_csv(report, os.path.splitext(out)[0] + ".csv",
-                               {"threshold": report["threshold"]} if "threshold" in report else None)
+        reports.write_csv(report, os.path.splitext(out)[0] + ".csv",
+                          {"threshold": report["threshold"]} if "threshold" in report else None)
         log(f"wrote {out} and {os.path.splitext(out)[0]}.csv")
     if sweep_abs or sweep_q:
-        rows = run_sweep(cfg, ev, pol, report, sweep_abs, sweep_q, groups, rounds, args.seed, time_model, log)
-        print(format_sweep(rows))
+        try:
+            rows = sweep.run_sweep(cfg, ev, pol, report, sweep_abs, sweep_q, groups, rounds, args.seed, time_model, log)
+        except ValueError as e:  # no decision values to take quantiles of
+            print(f"{PROG}: error: {e}", file=sys.stderr)
+            return 1
+        print(sweep.format_sweep(rows))
         if sweep_out:
             M.save_report({"policy": name, "rows": rows}, sweep_out, cfg, extra)
-            report_files.write_sweep_csv(rows, os.path.splitext(sweep_out)[0] + ".csv")
+            reports.write_sweep_csv(rows, os.path.splitext(sweep_out)[0] + ".csv")
             log(f"wrote {sweep_out} and {os.path.splitext(sweep_out)[0]}.csv")
         if args.plot:
             path = os.path.splitext(args.plot)[0] + "_sweep.png"
-            report_files.plot_sweep(rows, path, title=f"{name}: grasp success vs threshold")
+            reports.plot_sweep(rows, path, title=f"{name}: grasp success vs threshold")
             log(f"wrote {path}")
     if args.plot:
-        report_files.plot_by_objects({name: report, **compare}, args.plot)
+        reports.plot_by_objects({name: report, **compare}, args.plot)
         log(f"wrote {args.plot}")
     if args.record:
-        from vags_jax.benchmark.record_rounds import record_rounds
-
         record_rounds(cfg, ev, pol.params, report["seed"], groups, args.record_rounds, rounds, args.record, log)
     return 0
-
-
-def run_sweep(cfg, ev, pol, report, sweep_abs, sweep_q, groups, rounds, seed, time_model, log) -> list[dict]:
-    """The benchmark at each threshold (absolute values, then quantiles of the largest GDNet Q
-    seen at the main run's decisions) -> rows for report_files.write_sweep_csv."""
-    import dataclasses as dc
-
-    import jax.numpy as jnp
-    import numpy as np
-
-    from vags_jax.benchmark import protocol as E
-    from vags_jax.benchmark import metrics as M
-    from vags_jax.policies import catalog as P
-    from vags_jax.stages import rundir
-
-    scores = np.concatenate([np.asarray(o["scores"], np.float64).ravel() for o in report["outcomes"].values()])
-    scores = scores[np.isfinite(scores)]
-    points = [("absolute", None, t) for t in sweep_abs]
-    if sweep_q:
-        if scores.size == 0:
-            raise SystemExit(f"{PROG}: error: the main run recorded no decision values to take quantiles of")
-        points += [("quantile", q, float(np.quantile(scores, q))) for q in sweep_q]
-    rows = []
-    for kind, q, thr in points:
-        p = dc.replace(pol, params={**pol.params, "threshold": jnp.asarray(thr, jnp.float32)})
-        r = E.evaluate(cfg, p, groups, rounds, seed, time_model, ev)
-        o = r["overall"]
-        log(f"sweep {kind} {'' if q is None else f'q={q:g} '}threshold {thr:.4f}: success "
-            f"{M._pct(o['grasp_success_rate'])} %, clearing {M._pct(o['clearing_rate'])} %, viewpoint "
-            f"{M._pct(o['viewpoint_rate'])} %")
-        rows.append({"kind": kind, "quantile": q, "threshold": thr, "overall": o, "groups_metrics": r["groups_metrics"]})
-    return rows
-
-
-def format_sweep(rows: list[dict]) -> str:
-    """Markdown table of a threshold sweep."""
-    from vags_jax.benchmark import protocol as E
-    from vags_jax.benchmark import metrics as M
-    from vags_jax.policies import catalog as P
-    from vags_jax.stages import rundir
-
-    out = ["| sweep | quantile | threshold | grasp success % | clearing % | motion number | viewpoint % | picks/hour |",
-           "|---|---:|---:|---:|---:|---:|---:|---:|"]
-    for r in rows:
-        o = r["overall"]
-        out.append(f"| {r['kind']} | {'-' if r['quantile'] is None else format(r['quantile'], 'g')} | "
-                   f"{r['threshold']:.4f} | {M._pct(o['grasp_success_rate'])} | {M._pct(o['clearing_rate'])} | "
-                   f"{M._num(o['motion_number'])} | {M._pct(o['viewpoint_rate'])} | {M._num(o['picks_per_hour'], '{:.0f}')} |")
-    return "\n".join(out)
 
 
 if __name__ == "__main__":

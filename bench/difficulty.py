@@ -37,7 +37,7 @@ def main(argv=None) -> int:
     p.add_argument("--out-dir", default=None)
     args = p.parse_args(argv)
 
-    from eval import parse_groups
+    from vags_jax.benchmark.requests import parse_groups
     from vags_jax.stages import checkpoint
     from vags_jax import config as C
     from vags_jax.benchmark import protocol as E

@@ -31,3 +31,12 @@ def tiny_cfg():
     from vags_jax import config as C
 
     return C.replace(C.tiny(), **TINY_TEST_OVERRIDES)
+
+
+@pytest.fixture(scope="session")
+def programs():
+    """The environments, stages and GG-CNN data makers built by train.py in this session
+    (``driver.Programs``): pass it to ``train.main(argv, programs)`` to compile each once."""
+    from vags_jax.stages import driver
+
+    return driver.Programs()

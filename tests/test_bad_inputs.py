@@ -25,7 +25,7 @@ import pytest
 import eval as eval_cli
 import train
 from vags_jax.perception import camera, heightmap
-from vags_jax.stages import checkpoint, stage1 as stages
+from vags_jax.stages import checkpoint, driver, requests, stage1 as stages
 from vags_jax import config as C
 from vags_jax.config import Workspace
 
@@ -346,9 +346,9 @@ def test_a_failed_start_leaves_an_out_that_the_corrected_command_accepts(tmp_pat
     checkpoint.save_config(out, C.tiny())
     open(os.path.join(out, "metrics.jsonl"), "w").close()
     os.makedirs(os.path.join(out, "checkpoints"))
-    train.check_fresh_out(out)  # no error
+    requests.check_fresh_out(out)  # no error
     args = train.parse_args(["--config", "tiny", "--out", out, "--set", "stage1.iterations=3"])
-    assert train.prepare(args).cfg.stage1.iterations == 3
+    assert requests.prepare_stage1(args).cfg.stage1.iterations == 3
     # ... but resuming it says why not.
     code, line = _cli(train.main, ["--out", out, "--resume"], capsys)
     assert code == 2 and "has no checkpoint yet" in line and "without --resume" in line
@@ -596,7 +596,7 @@ def test_resume_never_rewrites_the_config_silently(argv, code, msg, tmp_path, ca
 def test_resume_raising_iterations_passes_the_checks(tmp_path, fake_run):
     """The only allowed change: more iterations, recorded as where it came from."""
     run = fake_run(tmp_path)
-    plan = train.prepare(train.parse_args(["--out", run, "--resume", "--set", "stage1.iterations=12"]))
+    plan = requests.prepare_stage1(train.parse_args(["--out", run, "--resume", "--set", "stage1.iterations=12"]))
     assert plan.step == 4 and plan.cfg.stage1.iterations == 12 and plan.raised_from == 8 and not plan.done
     assert set(plan.arrays) == {"env", "learner", "replay", "key", "iteration", "attempts"}
 
@@ -847,9 +847,9 @@ def _metrics(**bad):
     ({"td_abs": (2, -np.inf), "q_executed": (2, np.nan)}, r"td_abs and q_executed became non-finite at iteration 12"),
 ])
 def test_non_finite_training_metrics_are_caught(bad, msg):
-    got = train.nonfinite(_metrics(**bad), 10)
+    got = driver.nonfinite(_metrics(**bad), 10)
     assert got is not None and re.search(msg, got) and "lower dqn.learning_rate" in got
-    assert train.nonfinite(_metrics(), 10) is None
+    assert driver.nonfinite(_metrics(), 10) is None
 
 
 # ----------------------------------------------------------------------------- real processes

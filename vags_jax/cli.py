@@ -73,10 +73,10 @@ def check_writable_file(path: str, flag: str) -> None:
         raise ValueError(f"{flag} must not be empty")
     if os.path.isdir(path):
         raise ValueError(f"{flag} {path!r} is a directory; give a file name, e.g. {os.path.join(path, 'report.json')}")
-    _check_parent_writable(path, flag)
+    check_parent_writable(path, flag)
 
 
-def _check_parent_writable(path: str, flag: str) -> None:
+def check_parent_writable(path: str, flag: str) -> None:
     parent = os.path.dirname(os.path.abspath(path))
     while not os.path.exists(parent):  # the nearest existing ancestor must be a writable directory
         parent = os.path.dirname(parent)

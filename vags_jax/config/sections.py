@@ -260,54 +260,38 @@ class Sim:
     """Physics settings.  ``impl`` is MJX's backend: "jax" (any device) or "warp" (GPU)."""
 
     impl: str = "jax"
-    # Seconds per physics step.  2 ms for MJX jax (a longer step warns: at 4 ms its pads were
-    # pried open on wrong-axis grasps); MuJoCo Warp kept the same grasp outcomes at 4-6 ms, and
-    # the ``gpu`` preset uses 6 ms (bench/RESULTS.md, "fourth pass", "sixth pass").
+    # s per physics step; MJX jax needs 2 ms, warp holds 6 ms (bench/RESULTS.md, "Environment throughput",
+    # 4th/6th pass)
     timestep: float = 0.002
-    # Newton solver iterations.  A lower cap is faster on the H100 (bench/RESULTS.md, "physics
-    # profile"); at 5, MJX jax launched 1.3 % of dropped objects off the table (10: 0.3 %, as 20).
-    # Under JAX, MuJoCo Warp always runs all of them (no CUDA-graph conditionals), and in a
-    # batch of thousands some world needs 9-10 every step, so the cap sets the solver's cost.
-    # On MuJoCo Warp a cap of 5 kept the same grasp success and losses, and so did 2 (the ``gpu``
-    # preset's, seventh pass; every Newton iteration costs the same whatever the worlds need,
-    # since the solver's kernels run over every world and constraint row); a cap of 1 did not.
-    # ls_iterations below 20 (8, 10, 12) let elliptic cones with impratio 10 inject energy when
-    # blocks land in MuJoCo C (objects launched, NaNs); 20 is stable.
+    # Newton solver cap and line-search iterations: 10 and 20 keep objects on the table under MJX
+    # jax; the ``gpu`` preset's cap of 2 keeps warp's grasp outcomes (bench/RESULTS.md, "Environment
+    # throughput", 7th pass).
     iterations: int = 10
     ls_iterations: int = 20
     impratio: float = 10.0  # friction-to-normal impedance ratio (elliptic cones); ``tiny`` uses 1
     solver: str = "newton"  # MuJoCo constraint solver: "newton" or "cg"
     tolerance: float = 1e-8  # MuJoCo opt.tolerance: the solver stops early below this improvement
-    # Contact / constraint buffers.  None -> sized from the scene (see sim.py).
+    # Contact / constraint buffers.  None -> sized from the scene (see vags_jax/sim/simulator.py).
     naconmax: Optional[int] = None  # warp: contacts across all worlds
     njmax: Optional[int] = None  # warp: constraint rows per world
     # Contact budget per world.  jax: MJX "max_contact_points" (the deepest contacts are kept; cuts
     # constraint rows); warp: naconmax = B * this when naconmax is None.
-    # None -> 20 * scene.max_objects + 56 (see sim.py).  Overflow is flagged in SimState.overflow.
+    # None -> 20 * scene.max_objects + 56 (see vags_jax/sim/simulator.py).  Overflow is flagged in SimState.overflow.
     contacts_per_world: Optional[int] = None
-    # MuJoCo sleeping (impl "warp", Newton solver): a body tree at rest (speed below
-    # ``sleep_tolerance``, m/s or rad/s scaled by its size) for a few steps stops being simulated
-    # and its contacts with other sleeping trees are not computed, until something awake touches
-    # it.  Teleports (new scenes, parked objects) wake their worlds.  MJX jax has no sleeping.
-    # Off in every preset: in the H100 training loop it kept the heuristic's success but made
-    # 0.90x the attempts/s (bench/RESULTS.md, "fifth pass"); the island bookkeeping run on
-    # every step costs more than the contacts and solver rows that sleeping bodies save.
+    # MuJoCo sleeping (impl "warp" only): bodies at rest stop being simulated until touched; off in
+    # every preset, it cost attempts/s in the H100 training loop (bench/RESULTS.md, "Environment throughput",
+    # 5th pass).
     sleep: bool = False
     sleep_tolerance: float = 1e-3
-    # Friction cone: "elliptic" (default) or "pyramidal".  Pyramidal made MuJoCo Warp's step
-    # 1.33x faster on the H100, but objects slipped out of the pads: the heuristic's success in
-    # 10-object scenes fell from 96 % to 83 % (impratio 10), 52 % (100) and 33 % (1)
-    # (bench/RESULTS.md, "sixth pass").  Kept for research; no preset uses it.
+    # Friction cone: "elliptic" or "pyramidal" (faster on warp, but objects slip out of the pads;
+    # no preset uses it: bench/RESULTS.md, "Environment throughput", 6th pass).
     cone: str = "elliptic"
-    # Convex collision detection (MuJoCo's opt.ccd_iterations: GJK / EPA iteration cap; 35 is
-    # MuJoCo's default; 10 changed nothing measurable).  ``native_ccd`` False sets
-    # mjDSBL_NATIVECCD: box-box pairs use MuJoCo's primitive box-box test instead of the general
-    # convex one (meshes are always convex); the ``gpu`` preset does this.  Impl "warp" and
-    # MuJoCo C honour both; MJX jax has its own collision functions and ignores them.
+    # Convex collision: MuJoCo's GJK / EPA iteration cap; ``native_ccd`` False uses MuJoCo's primitive
+    # box-box test (the ``gpu`` preset).  Impl "warp" and MuJoCo C honour both; MJX jax ignores them.
     ccd_iterations: int = 35
     native_ccd: bool = True
-    # ``multi_ccd`` False sets mjDSBL_MULTICCD: convex pairs get one contact point, not a patch.
-    # Faster, but resting meshes rock: success 84 % and 14x the objects lost (sixth pass).
+    # ``multi_ccd`` False: one contact per convex pair; faster, but resting meshes rock (bench/RESULTS.md,
+    # "Environment throughput", 6th pass).
     multi_ccd: bool = True
 
     def __post_init__(self):
@@ -352,16 +336,11 @@ class Grasp:
     lift_height: float = 0.15  # m lifted after closing
     finger_stroke: float = 0.085  # m, full opening between the pads
     grip_force: float = 40.0  # N, actuator force limit
-    # Guarded descent.  None: the whole descent from ``approach_height`` is simulated.  A value c
-    # (m): the free-space part is skipped, as a robot moves fast to a pre-grasp pose and only
-    # the last stretch is a slow guarded move: the gripper is placed with its fingertips c above
-    # the highest object point within its reach (or above the grasp point if that is higher),
-    # never higher than ``approach_height``, and ``t_descend`` covers only that stretch.  The
-    # commanded travel reported for the picks-per-hour model is still ``approach_height``.
-    # Default 3 cm with a 0.15 s descent (typically 6 cm, the old average speed): the same
-    # scripted outcomes on CPU and the same heuristic success in 10-object scenes on the H100
-    # as the whole 15 cm descent in 0.4 s, with 535 instead of 660 physics steps per grasp
-    # (bench/RESULTS.md, "third pass").
+    # Guarded descent: None simulates the whole descent from ``approach_height``; c (m) places the
+    # gripper with its fingertips c above the highest object within reach (or the grasp point),
+    # skipping the free-space part; the reported travel is still ``approach_height``.  3 cm kept
+    # the scripted and heuristic outcomes with 535 instead of 660 steps (bench/RESULTS.md, "Environment
+    # throughput", 3rd pass).
     descent_clearance: Optional[float] = 0.03
     # Phase durations, seconds.
     t_settle: float = 0.02  # gripper teleported at rest above the grasp point, fingers opening
@@ -488,11 +467,8 @@ class Camera:
     noise: DepthNoise = field(default_factory=DepthNoise)
     renderer: str = "jax"  # "jax": pure-JAX ray caster (any device) | "warp": MJX Warp renderer (GPU)
     render_batch: int = 256  # worlds rendered + projected together (bounds memory; both renderers)
-    # Warp renderer only: drop ray hits on faces turned away from the ray (MuJoCo's mesh-ray
-    # rule).  Such hits need the camera inside a geom, which ours never is (the gripper is not
-    # rendered), so turning it off leaves the images as they were to what bench/render_parity.py
-    # resolves (the same agreement with the JAX ray caster either way) and made the Warp
-    # renderer 1.35x faster on the H100 (bench/RESULTS.md, "eighth pass").
+    # Warp renderer only: MuJoCo's back-face culling; off gives the same images, faster (bench/RESULTS.md,
+    # "Environment throughput", 8th pass).
     warp_backface_culling: bool = False
 
     def __post_init__(self):

@@ -297,18 +297,6 @@ class DataMaker:
         self.execute = jax.jit(functools.partial(execute_grasps, self.env))
         self._finish = jax.jit(functools.partial(_finish_batch, cfg))
 
-    @classmethod
-    def shared(cls, cfg: Config) -> "DataMaker":
-        """A DataMaker for ``cfg``, reused by later calls in this process for any config with
-        the same ``program_key`` (e.g. another seed or number of views): its programs are
-        traced and compiled once."""
-        key = program_key(cfg)
-        if key not in _SHARED:
-            if len(_SHARED) >= 2:
-                _SHARED.pop(next(iter(_SHARED)))
-            _SHARED[key] = cls(cfg)
-        return _SHARED[key]
-
     def check_fits(self, cfg: Config) -> None:
         """ValueError unless this maker's programs make ``cfg``'s data (same ``program_key``)."""
         if program_key(cfg) != self.key:
@@ -330,8 +318,6 @@ class DataMaker:
         v = self.render(key)
         return self._finish(v, *self.candidate_trials(v))
 
-
-_SHARED: dict = {}
 
 
 def program_key(cfg: Config) -> str:

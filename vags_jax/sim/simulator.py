@@ -71,17 +71,8 @@ Buffers and failures (never silently accepted):
     (more may have been dropped): ``state.overflow``.  Tiny scenes with fewer candidate
     slots than the budget cannot overflow.  Numerical failures (NaNs, an object through the
     table) set ``state.error`` (both impls).
-  Solver note: with elliptic cones, impratio 10 and a 2 ms step, MuJoCo C needs
-  ``Sim.ls_iterations`` >= 20 (at 8-12 landing blocks gain energy, get launched or blow up to
-  NaN); ``Sim.iterations`` is capped at 10 (at 5 MJX jax launched 1.3 % of dropped objects off
-  the table).  Time step: under MJX jax a 4 ms step let the pads be pried open on wrong-axis
-  cuboid grasps (they "succeeded"), so the default stays at 2 ms and a longer step with impl
-  "jax" warns; MuJoCo Warp (impl "warp") gave the same scripted outcomes and heuristic success
-  at 4, 5 and 6 ms (at 7 ms it lost 2.7x more objects), and the ``gpu`` preset uses 6 ms
-  (bench/RESULTS.md, "fourth pass" and "sixth pass").
-  MJX jax with impratio 10 sent about 8 % of fresh worlds to NaN on their first heuristic
-  grasp (pads pried open on a turning cuboid); with impratio 1, none in 96: the CPU ``tiny``
-  preset uses 1 (bench/RESULTS.md, "fifth pass").
+  Solver settings (ls_iterations 20, the 2 ms step of MJX jax, impratio 1 in ``tiny``): the
+  measurements are in bench/RESULTS.md, "Environment throughput".
   Only NaNs and tunnelling are flagged (``error``); objects launched out of the workspace are
   deactivated (counted as lost by the evaluation), so keep ls_iterations at 20.
   ``check_overflow(state)`` (host side, between jitted calls) raises ``RuntimeError`` naming

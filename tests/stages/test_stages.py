@@ -13,6 +13,7 @@ import pytest
 import eval as eval_cli
 import train
 from vags_jax.stages import checkpoint, ggcnn as ggcnn_stage, rundir as pipeline, stage23 as vags_stages
+from vags_jax.stages import pipeline as fold
 from vags_jax.rl import replay
 from vags_jax import config as C
 from vags_jax.nets.ggcnn import init_ggcnn
@@ -49,7 +50,7 @@ def _with_ggcnn(run):
 
 
 @pytest.fixture(scope="module")
-def runs(tmp_path_factory):
+def runs(tmp_path_factory, programs):
     """The whole pipeline uninterrupted (stage 1: 4 iterations, stage 2: 2, stage 3: 4; its
     GG-CNN already in the run directory, so it is reused), and the same pipeline run piece by
     piece: stage 1 for 2 iterations, resumed to 4; stage 2 alone; stage 3 for 2 iterations
@@ -57,13 +58,13 @@ def runs(tmp_path_factory):
     root = tmp_path_factory.mktemp("runs")
     full, split = _with_ggcnn(str(root / "full")), _with_ggcnn(str(root / "split"))
     base = ["--config", "tiny", "--chunk", "2", "--quiet"]
-    assert train.main(base + ["--out", full, "--set"] + _overrides(4)) == 0
-    assert train.main(base + ["--stage", "gdnet", "--out", split, "--set"] + _overrides(2)) == 0
+    assert train.main(base + ["--out", full, "--set"] + _overrides(4), programs) == 0
+    assert train.main(base + ["--stage", "gdnet", "--out", split, "--set"] + _overrides(2), programs) == 0
     resume = ["--out", split, "--chunk", "2", "--quiet"]
-    assert train.main(resume + ["--resume", "--stage", "gdnet", "--set", "stage1.iterations=4"]) == 0
-    assert train.main(resume + ["--stage", "stage2"]) == 0
-    assert train.main(resume + ["--stage", "stage3", "--set", "stage3.iterations=2"]) == 0
-    assert train.main(resume + ["--resume", "--set", "stage3.iterations=4"]) == 0
+    assert train.main(resume + ["--resume", "--stage", "gdnet", "--set", "stage1.iterations=4"], programs) == 0
+    assert train.main(resume + ["--stage", "stage2"], programs) == 0
+    assert train.main(resume + ["--stage", "stage3", "--set", "stage3.iterations=2"], programs) == 0
+    assert train.main(resume + ["--resume", "--set", "stage3.iterations=4"], programs) == 0
     return full, split
 
 
@@ -149,6 +150,37 @@ def test_stage_hand_over(runs):
             not checkpoint.tree_equal(nets.vanet["params"], va2.params)
 
 
+def _saved_equal(saved: dict, tree) -> bool:
+    """Arrays of a checkpoint part (``checkpoint.read``) equal the non-empty leaves of ``tree``."""
+    leaves = [np.asarray(x) for x in jax.tree.leaves(tree) if np.size(x) > 0]
+    return len(leaves) == len(saved) and all(
+        x.dtype == saved[f"{i:05d}"].dtype and np.array_equal(x, saved[f"{i:05d}"]) for i, x in enumerate(leaves))
+
+
+def test_pipeline_in_memory_gives_the_networks_train_py_wrote(runs, programs):
+    """The pipeline as a fold of pure stage functions (``stages.pipeline.train_in_memory``:
+    nothing written, the stages handing over in memory) gives, bit for bit, the networks that
+    train.py wrote for the same config: stage 1's GDNet, stage 2's networks and threshold, and
+    stage 3's GDNet, VANet, success net and re-set threshold."""
+    full, _ = runs
+    cfg = checkpoint.load_config(full)
+    gg, _ = ggcnn_stage.load_ggcnn(full)  # the GG-CNN the run reused
+    h1, _ = fold.train_in_memory(cfg, None, names=("stage1",), handover=fold.Handover(ggcnn=gg), chunk=2,
+                                 build=lambda name: programs.stage(name, cfg))
+    assert checkpoint.tree_equal(h1.gdnet, pipeline.stage1_gdnet(full, cfg))
+    h2, _ = fold.train_in_memory(cfg, None, names=("stage2",), handover=h1, chunk=2,
+                                 build=lambda name: programs.stage(name, cfg))
+    saved2, _ = checkpoint.read(pipeline.networks_dir(full, "stage2"))
+    assert all(_saved_equal(saved2[part], tree) for part, tree in fold.networks_of(h2).items())
+    h3, metrics = fold.train_in_memory(cfg, None, names=("stage3",), handover=h2, chunk=2,
+                                       build=lambda name: programs.stage(name, cfg))
+    saved3, _ = checkpoint.read(pipeline.networks_dir(full, "stage3"))
+    assert all(_saved_equal(saved3[part], tree) for part, tree in fold.networks_of(h3).items())
+    rows = _metrics(os.path.join(full, "stage3", "metrics.jsonl"))
+    losses = np.concatenate([np.asarray(m["loss_vanet"]) for m in metrics["stage3"]])
+    assert [r["loss_vanet"] for r in rows] == [float(x) for x in losses]
+
+
 def test_eval_vags_sweep_csv_and_record(runs, tmp_path, capsys):
     """eval.py on the pipeline's run: the vags policy by default, its CSV, a threshold sweep
     whose extremes never / always move the camera, quantile thresholds taken from the scores
@@ -196,13 +228,13 @@ def test_metrics_are_sane(runs):
     assert rows[-1]["updates"] == 1  # learning started once replay held learning_starts
 
 
-def test_resume_errors(tmp_path, capsys):
-    assert train.main(["--out", str(tmp_path / "nope"), "--resume"]) == 2
+def test_resume_errors(tmp_path, capsys, programs):
+    assert train.main(["--out", str(tmp_path / "nope"), "--resume"], programs) == 2
     assert "does not exist; drop --resume" in capsys.readouterr().err
 
 
-def test_refuses_to_overwrite_a_run(runs, capsys):
-    assert train.main(["--config", "tiny", "--out", runs[0]]) == 2
+def test_refuses_to_overwrite_a_run(runs, capsys, programs):
+    assert train.main(["--config", "tiny", "--out", runs[0]], programs) == 2
     assert "already holds a run (checkpoint 4); pass --resume" in capsys.readouterr().err
 
 
@@ -215,19 +247,19 @@ def _files(path):
     return out
 
 
-def test_resume_with_iterations_already_done_changes_nothing(runs, capsys):
+def test_resume_with_iterations_already_done_changes_nothing(runs, capsys, programs):
     """A run at 4: asking for 2 is an error, asking for 4 (or a plain --resume) has nothing to
     do; neither trains nor rewrites config.json (which would stall later resumes)."""
     before = _files(runs[0])
-    assert train.main(["--out", runs[0], "--resume", "--stage", "gdnet", "--quiet", "--set", "stage1.iterations=2"]) == 2
+    assert train.main(["--out", runs[0], "--resume", "--stage", "gdnet", "--quiet", "--set", "stage1.iterations=2"], programs) == 2
     assert "already at iteration 4: the requested stage1.iterations=2 are already done" in capsys.readouterr().err
-    assert train.main(["--out", runs[0], "--resume", "--stage", "gdnet", "--quiet"]) == 0
+    assert train.main(["--out", runs[0], "--resume", "--stage", "gdnet", "--quiet"], programs) == 0
     assert "already at iteration 4 of 4: nothing to train (config.json unchanged)" in capsys.readouterr().err
     # The whole pipeline is done too: --resume trains nothing and changes nothing.
-    assert train.main(["--out", runs[0], "--resume", "--quiet"]) == 0
+    assert train.main(["--out", runs[0], "--resume", "--quiet"], programs) == 0
     assert json.loads(capsys.readouterr().out.strip().splitlines()[-1])["stages"] == []
     # Stage 1 has been built on: its iterations can no longer change.
-    assert train.main(["--out", runs[0], "--resume", "--quiet", "--set", "stage1.iterations=6"]) == 2
+    assert train.main(["--out", runs[0], "--resume", "--quiet", "--set", "stage1.iterations=6"], programs) == 2
     assert "already started from the end of stage 1: GDNet" in capsys.readouterr().err
     assert _files(runs[0]) == before
 
@@ -271,7 +303,7 @@ def _cut_all_then(main, step_dir):
     return run
 
 
-def test_divergence_stops_and_keeps_the_last_good_checkpoint(runs, target, tmp_path, capsys, monkeypatch):
+def test_divergence_stops_and_keeps_the_last_good_checkpoint(runs, target, tmp_path, capsys, monkeypatch, programs):
     """A NaN loss in the second chunk (injected into the metrics the host checks): exit code 1,
     a message naming the iteration, and the state before that chunk saved as the checkpoint
     (equal to the uninterrupted run's checkpoint 2), nothing after it."""
@@ -286,7 +318,7 @@ def test_divergence_stops_and_keeps_the_last_good_checkpoint(runs, target, tmp_p
     monkeypatch.setattr(Stage1, "run", poisoned)
     out = str(tmp_path / "diverged")
     code = train.main(["--config", "tiny", "--stage", "gdnet", "--chunk", "2", "--checkpoint-every", "2", "--quiet",
-                       "--out", out, "--set"] + _overrides(6))
+                       "--out", out, "--set"] + _overrides(6), programs)
     err = capsys.readouterr().err
     assert code == 1
     assert "loss became non-finite at iteration 3" in err and "last good checkpoint is iteration 2" in err
@@ -296,10 +328,10 @@ def test_divergence_stops_and_keeps_the_last_good_checkpoint(runs, target, tmp_p
     assert int(saved.iteration) == 2 and checkpoint.tree_equal(saved, good)
 
 
-def test_bad_override_is_a_clear_error(tmp_path, capsys):
-    assert train.main(["--config", "tiny", "--out", str(tmp_path / "x"), "--set", "dqn.gama=0.3"]) == 2
+def test_bad_override_is_a_clear_error(tmp_path, capsys, programs):
+    assert train.main(["--config", "tiny", "--out", str(tmp_path / "x"), "--set", "dqn.gama=0.3"], programs) == 2
     assert "gama" in capsys.readouterr().err
-    assert train.main(["--config", "tiny", "--out", str(tmp_path / "y"), "--set", "stage1.max_objects=7"]) == 2
+    assert train.main(["--config", "tiny", "--out", str(tmp_path / "y"), "--set", "stage1.max_objects=7"], programs) == 2
 
 
 def test_checkpoint_from_other_config_is_refused(runs, target):

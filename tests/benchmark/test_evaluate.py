@@ -10,6 +10,7 @@ from vags_jax.stages import checkpoint
 from vags_jax import config as C
 from vags_jax.rl import dqn, replay
 from vags_jax.benchmark import protocol as E
+from vags_jax.benchmark import requests
 from vags_jax.benchmark import metrics as M
 from vags_jax.policies import catalog as P
 from vags_jax.stages import rundir
@@ -106,7 +107,7 @@ def test_cli_errors(tmp_path, capsys):
     run = tmp_path / "run"
     checkpoint.save_config(str(run), C.tiny())
     assert "no checkpoints" in err(["--run", str(run)])
-    assert eval_cli.parse_groups("1-3,5,2") == [1, 2, 3, 5]
+    assert requests.parse_groups("1-3,5,2") == [1, 2, 3, 5]
 
 
 # ----------------------------------------------------------------------------- checkpoint

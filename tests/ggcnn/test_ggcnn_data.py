@@ -1,6 +1,6 @@
 """GG-CNN's physics-labelled dataset, its cache, and ``train.py --stage ggcnn`` (tiny config, CPU).
 
-Compile time dominates: every test shares one ``DataMaker`` (``DataMaker.shared``: the two
+Compile time dominates: every test shares one ``DataMaker`` (the session's ``Programs``: the two
 compiled programs, scenes + views + candidates and grasps in scene copies), train.py's run
 included, and the dataset is made once per module (2 scenes of 4 candidates per batch).
 """
@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 import train
-from vags_jax.stages import checkpoint, ggcnn as ggcnn_stage
+from vags_jax.stages import checkpoint, ggcnn as ggcnn_stage, requests
 from vags_jax import config as C
 from vags_jax.ggcnn import data as ggcnn_data
 from vags_jax.nets.ggcnn import init_ggcnn
@@ -40,8 +40,8 @@ def cfg():
 
 
 @pytest.fixture(scope="module")
-def maker(cfg):
-    return ggcnn_data.DataMaker.shared(cfg)
+def maker(cfg, programs):
+    return programs.data_maker(cfg)
 
 
 @pytest.fixture(scope="module")
@@ -189,11 +189,11 @@ def test_damaged_cache_is_named_and_remade(cfg, maker, made, data_dir):
         ggcnn_data.read_cache(other, path)
 
 
-def test_train_stage_ggcnn_end_to_end(cfg, maker, made, data_dir, tmp_path, capsys):
+def test_train_stage_ggcnn_end_to_end(cfg, maker, made, data_dir, tmp_path, capsys, programs):
     ds, _ = made
     run = str(tmp_path / "run")
     args = ["--config", "tiny", "--stage", "ggcnn", "--out", run, "--data-dir", data_dir, "--quiet", "--set", *SET]
-    assert train.main(args) == 0
+    assert train.main(args, programs) == 0
     out, err = capsys.readouterr()
     assert "reusing the cache" in err
     summary = json.loads(out.strip().splitlines()[-1])
@@ -218,7 +218,7 @@ def test_train_stage_ggcnn_end_to_end(cfg, maker, made, data_dir, tmp_path, caps
     assert not checkpoint.tree_equal(params, init_ggcnn(jax.random.PRNGKey(0), size=12))
 
     # Stage 1 may still start in this run directory; a second GG-CNN may not.
-    plan = train.prepare(train.parse_args(["--config", "tiny", "--out", run]))
+    plan = requests.prepare_stage1(train.parse_args(["--config", "tiny", "--out", run]))
     assert plan.step == 0
     assert train.main(args) == 2
     err = capsys.readouterr().err

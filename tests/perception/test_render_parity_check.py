@@ -11,7 +11,7 @@ import sys
 import numpy as np
 import pytest
 
-_PATH = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "bench", "render_parity.py")
+_PATH = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))), "bench", "render_parity.py")
 _spec = importlib.util.spec_from_file_location("render_parity", _PATH)
 rp = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(rp)

@@ -1,0 +1,418 @@
+"""``train.py``'s work after its checks: the pipeline's fold (``vags_jax.stages.pipeline``) with
+logs, checkpoints and timings written between chunks.
+
+A stage runs chunk by chunk (``run_chunks``): after each chunk its metrics rows go to
+``metrics.jsonl``, a progress line to stderr and, every ``--checkpoint-every`` chunks, the whole
+state to an orbax checkpoint.  The stages hand over in memory (``pipeline.Handover``); a stage
+finished by an earlier process (``--resume``, ``--stage``) hands over from its checkpoint.  A
+chunk whose loss or Q values are not finite stops the run and keeps the last good state.
+``Programs`` holds the built environment and stages of one process, so that a caller running
+several commands (a test session) compiles each program once.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+import sys
+import time
+from typing import Callable, Optional
+
+import jax
+import numpy as np
+
+from vags_jax import cli
+from vags_jax import config as C
+from vags_jax.env import VagsEnv
+from vags_jax.ggcnn import data as ggcnn_data
+from vags_jax.stages import checkpoint, pipeline, requests, rundir, stage23
+from vags_jax.stages import ggcnn as ggcnn_stage
+from vags_jax.stages.stage1 import Stage1
+from vags_jax.stages.stage23 import VagsStage
+
+PROG = "train.py"
+# Stage 1's metrics that must stay finite; the run stops (exit code 1) when one is not.
+FINITE_METRICS = ("loss", "td_abs", "q_max", "q_executed")
+
+
+class Programs:
+    """The environment, stages and GG-CNN data makers built in this process, by config (the
+    iteration counts do not enter the programs, so they are not part of the key).  Pass one
+    ``Programs`` to several ``train`` calls to compile each program once."""
+
+    def __init__(self):
+        self._built: dict = {}
+
+    def get(self, key, make: Callable):
+        if key not in self._built:
+            self._built[key] = make()
+        return self._built[key]
+
+    def _cfg_key(self, kind: str, cfg):
+        return kind, C.replace(cfg, **{f"stage{n}.iterations": 1 for n in (1, 2, 3)})
+
+    def env(self, cfg) -> VagsEnv:
+        return self.get(self._cfg_key("env", cfg), lambda: VagsEnv(cfg))
+
+    def stage(self, name: str, cfg):
+        """The built ``Stage1`` / ``VagsStage`` of ``name`` for ``cfg`` on this process's env."""
+        make = (lambda: Stage1(cfg, self.env(cfg))) if name == "stage1" else (
+            lambda: VagsStage(cfg, int(name[-1]), self.env(cfg)))
+        return self.get(self._cfg_key(name, cfg), make)
+
+    def data_maker(self, cfg) -> ggcnn_data.DataMaker:
+        """GG-CNN's data programs, shared by configs with the same ``program_key``."""
+        return self.get(("ggcnn_data", ggcnn_data.program_key(cfg)), lambda: ggcnn_data.DataMaker(cfg))
+
+
+def log(msg: str) -> None:
+    print(msg, file=sys.stderr, flush=True)
+
+
+def fail(message) -> int:
+    return cli.fail(PROG, message)
+
+
+# ----------------------------------------------------------------------------- GG-CNN
+
+
+def train_ggcnn_into(cfg, out: str, data_dir: str, quiet: bool, programs: Programs, chunk=None):
+    """GG-CNN's data (made or reused from ``data_dir``), training, held-out accuracy and
+    checkpoint into ``out``/ggcnn -> (exit code, summary dict or None, params or None)."""
+    t0 = time.time()
+    try:
+        maker = programs.data_maker(cfg)  # e.g. an unknown shape name in scene.shapes
+    except ValueError as e:
+        return fail(e), None, None
+    d = cfg.ggcnn_data
+    log(f"training GG-CNN: {d.views} views ({d.heldout_views} held out) of {d.candidates} grasps, "
+        f"{cfg.ggcnn.train_steps} updates of batch {cfg.ggcnn.batch_size}, input {cfg.ggcnn.input_size} px, "
+        f"impl={cfg.sim.impl}, devices={jax.devices()}")
+    try:
+        data = ggcnn_data.load_or_make(cfg, maker, data_dir, log)
+    except OSError as e:
+        return fail(f"cannot write the GG-CNN data cache in {data_dir} ({cli.first_line(e)}); "
+                    f"pass another --data-dir"), None, None
+    try:
+        params, metrics = ggcnn_stage.train_ggcnn(cfg, data, ggcnn_stage.train_key(cfg),
+                                                  log=None if quiet else log, chunk=chunk)
+    except FloatingPointError as e:
+        print(f"{PROG}: error: {e}. Stopped; nothing was saved", file=sys.stderr)
+        return 1, None, None
+    acc = ggcnn_stage.heldout_accuracy(cfg, maker.env, params, maker=maker, log=log)
+    info = {"steps": metrics["steps"], "training": metrics, "heldout_accuracy": acc,
+            "data": dict(data.info), "wall_s": round(time.time() - t0, 1)}
+    gdir = ggcnn_stage.save_ggcnn(out, params, info, cfg)
+    summary = {"stage": "ggcnn", "steps": metrics["steps"], "train_loss": metrics["train_loss"],
+               "heldout_loss": metrics["heldout_loss"], **{k: acc[k] for k in (
+                   "ggcnn_success", "label_peak_success", "candidate_success", "views_with_success")},
+               "data_reused": data.info["reused"], "data": data.info["path"], "out": gdir,
+               "wall_s": info["wall_s"]}
+    return 0, summary, params
+
+
+def main_ggcnn(args, programs: Programs) -> int:
+    """--stage ggcnn: data (made or reused), training, held-out accuracy, checkpoint."""
+    try:
+        plan = requests.prepare_ggcnn(args)
+    except ValueError as e:
+        return fail(e)
+    code, summary, _ = train_ggcnn_into(plan.cfg, args.out, plan.data_dir, args.quiet, programs, args.chunk)
+    if summary is not None:
+        print(json.dumps(summary))
+    return code
+
+
+# ----------------------------------------------------------------------------- chunks
+
+
+def nonfinite(metrics: dict, first_iteration: int, names=FINITE_METRICS):
+    """A message naming the first iteration whose loss / Q values are not finite, else None.
+    ``metrics``: {name: (n,) array} of one chunk starting at ``first_iteration``."""
+    for k in range(len(next(iter(metrics.values())))):
+        bad = [name for name in names if name in metrics
+               and not math.isfinite(float(np.asarray(metrics[name])[k]))]
+        if bad:
+            return (f"{' and '.join(bad)} became non-finite at iteration {first_iteration + k} "
+                    f"({', '.join(f'{n} = {float(np.asarray(metrics[n])[k])}' for n in bad)}): the "
+                    f"learning diverged (a resume would repeat it exactly); start a new run with a "
+                    f"lower dqn.learning_rate or dqn.optimizer=adam")
+    return None
+
+
+def progress_line(stage, it, total, grasps, recent_success, eps, loss, rate, explored, view_share=None):
+    width = 24
+    done = int(width * it / max(total, 1))
+    view = "" if view_share is None else f"view {100 * view_share:4.1f}% | "
+    return (f"\r{stage} [{'#' * done}{'.' * (width - done)}] {it}/{total} it | {grasps} grasps | "
+            f"success {100 * recent_success:5.1f}% | {view}eps {eps:.3f} | explored {100 * explored:4.1f}% | "
+            f"loss {loss:.4f} | {rate:7.1f} grasps/s")
+
+
+def _trim_metrics(metrics_path: str, start_it: int) -> None:
+    """Drops the metrics rows at or past ``start_it`` (all of them for a fresh start)."""
+    if not os.path.exists(metrics_path):
+        return
+    if start_it == 0:
+        os.remove(metrics_path)
+        return
+    with open(metrics_path) as f:
+        lines = [l for l in f if l.strip() and json.loads(l)["iteration"] < start_it]
+    with open(metrics_path, "w") as f:
+        f.writelines(lines)
+
+
+def _write_rows(path: str, name: str, m: dict, first: int, t0: float) -> None:
+    with open(path, "a") as f:
+        for k in range(len(m["attempts"])):
+            row = {"stage": name, **{key: float(np.asarray(v)[k]) for key, v in m.items()}}
+            row["iteration"] = first + k
+            row["grasp_attempts"] = int(row["attempts_total"])
+            row["wall_s"] = round(time.time() - t0, 3)
+            f.write(json.dumps(row) + "\n")
+
+
+def run_chunks(name: str, stage, state, start_it: int, total: int, out_dir: str, args, deadline,
+               finite=FINITE_METRICS, loss_key: str = "loss", on_save=None):
+    """Advances a stage's state chunk by chunk from ``start_it`` to ``total`` iterations,
+    logging every iteration to ``out_dir``/metrics.jsonl (with ``"stage": name``), checkpointing
+    into ``out_dir`` and stopping at ``deadline`` (a time.time() value, or None).
+    Returns (state, iteration reached, status, grasps, recent success): status is "done",
+    "out_of_time" or an error message (the learning diverged; the last good state is saved).
+    ``on_save(it, state)`` runs after every checkpoint of a good state."""
+    metrics_path = os.path.join(out_dir, "metrics.jsonl")
+    _trim_metrics(metrics_path, start_it)
+    chunk = args.chunk or pipeline.default_chunk(total)
+    every = args.checkpoint_every or 1
+    t0 = time.time()
+    it, n_chunks, recent = start_it, 0, []
+    saved_it = start_it if start_it > 0 else None
+    grasps_done = int(jax.device_get(state.attempts))
+    while it < total:
+        n = min(chunk, total - it)
+        tc = time.time()
+        good = state  # the last state whose losses and Q values were finite
+        state, m = stage.run(state, n)
+        m = jax.device_get(m)
+        dt = time.time() - tc
+        _write_rows(metrics_path, name, m, it, t0)
+        diverged = nonfinite(m, it, finite)
+        if diverged:
+            if saved_it != it and not getattr(stage, "donates", False):  # keep the last good state
+                checkpoint.save(out_dir, it, good)
+                saved_it = it
+            if not args.quiet:
+                print(file=sys.stderr)
+            return good, it, (f"{diverged}. Stopped; the last good checkpoint is iteration {saved_it} in "
+                              f"{os.path.join(out_dir, checkpoint.CHECKPOINT_DIR)}"), grasps_done, None
+        it += n
+        n_chunks += 1
+        grasps_done = int(m["attempts_total"][-1])
+        recent = (recent + list(np.asarray(m["success_rate"])))[-max(10, chunk):]
+        if not args.quiet:
+            print(progress_line(name, it, total, grasps_done, float(np.mean(recent)), float(m["epsilon"][-1]),
+                                float(m[loss_key][-1]), float(np.sum(m["attempts"])) / dt,
+                                float(np.mean(m["explored"])),
+                                float(np.mean(m["view_share"])) if "view_share" in m else None),
+                  end="", file=sys.stderr, flush=True)
+        out_of_time = deadline is not None and time.time() > deadline
+        if n_chunks % every == 0 or it >= total or out_of_time:
+            checkpoint.save(out_dir, it, state)
+            saved_it = it
+            if on_save is not None:
+                on_save(it, state)
+        if out_of_time and it < total:
+            if not args.quiet:
+                print(file=sys.stderr)
+            return state, it, "out_of_time", grasps_done, float(np.mean(recent))
+    if not args.quiet:
+        print(file=sys.stderr)
+    return state, it, "done", grasps_done, float(np.mean(recent)) if recent else None
+
+
+def log_timing(out: str, name: str, start_it: int, it: int, wall_s: float, status: str) -> None:
+    """Appends one stage segment's wall-clock to ``out``/timings.jsonl."""
+    with open(os.path.join(out, "timings.jsonl"), "a") as f:
+        f.write(json.dumps({"stage": name, "from": start_it, "to": it, "wall_s": round(wall_s, 1),
+                            "status": status, "time": time.strftime("%Y-%m-%dT%H:%M:%S")}) + "\n")
+
+
+def end_of_segment(args, name: str, start_it: int, it: int, t0: float, status: str) -> bool:
+    """Logs a stage segment's wall clock (timings.jsonl) and says how it ended; True when the
+    learning diverged (``status`` is then the message)."""
+    ok = status in ("done", "out_of_time")
+    log_timing(args.out, name, start_it, it, time.time() - t0, status if ok else "diverged")
+    if not ok:
+        print(f"{PROG}: error: {status}", file=sys.stderr)
+    elif status == "out_of_time":
+        print(f"stopped after {args.max_minutes} min at {name} iteration {it}; --resume continues", file=sys.stderr)
+    return not ok
+
+
+# ----------------------------------------------------------------------------- stages 1-3
+
+
+def handover_from_disk(run_dir: str, cfg, name: str, h: pipeline.Handover) -> pipeline.Handover:
+    """``h`` with what stage ``name`` needs from stages finished by an earlier process, read
+    from their checkpoints (fields already set, in memory, are kept)."""
+    if h.ggcnn is None and name in ("stage2", "stage3"):
+        h = h.replace(ggcnn=rundir.ggcnn_params(run_dir, cfg, name))
+    if name == "stage2" and h.gdnet is None:
+        h = h.replace(gdnet=rundir.stage1_gdnet(run_dir, cfg, name))
+    if name == "stage3" and h.vanet is None:
+        gd, va, su, thr = rundir.stage2_result(run_dir, cfg, name)
+        h = h.replace(gdnet=gd, vanet=va, success=su, threshold=thr)
+    return h
+
+
+def _restore_target(fns: pipeline.StageFns, cfg, name: str, gg):
+    """A state of the right structure for stage ``name``'s checkpoint (placeholder learners)."""
+    key = rundir.stage_key(cfg, name)
+    if name == "stage1":
+        return fns.init(key, pipeline.Handover())
+    gd, va = rundir.learner_target(cfg, "gdnet"), rundir.learner_target(cfg, "vanet")
+    return fns.init(key, pipeline.Handover(ggcnn=gg, gdnet=gd, vanet=va, success=gd, threshold=0.0))
+
+
+def run_stage(cfg, args, name: str, done: int, h: pipeline.Handover, deadline, programs: Programs, arrays=None):
+    """Stage ``name`` from its start (``h``, the previous stages' output) or from its checkpoint
+    ``done`` (``arrays``: stage 1's, read and checked by ``requests``), trained to its
+    iterations -> (summary dict, Handover after it), or (exit code, None)."""
+    t0 = time.time()
+    out_dir = rundir.stage_dir(args.out, name)
+    st = getattr(cfg, name)
+    try:
+        fns = pipeline.stage_fns(name, programs.stage(name, cfg))
+        if done == 0:
+            state = fns.init(rundir.stage_key(cfg, name), handover_from_disk(args.out, cfg, name, h))
+        elif name == "stage1":
+            state = checkpoint.fit(args.out, done, _restore_target(fns, cfg, name, None), arrays)
+        else:
+            gg = h.ggcnn if h.ggcnn is not None else rundir.ggcnn_params(args.out, cfg, name)
+            state, _ = checkpoint.restore(out_dir, _restore_target(fns, cfg, name, gg), done)
+    except ValueError as e:  # config validation, CheckpointError: damaged or foreign checkpoint
+        return fail(e), None
+    if done:
+        print(f"resumed {out_dir if name != 'stage1' else args.out} at iteration {done}", file=sys.stderr)
+    os.makedirs(out_dir, exist_ok=True)
+    checkpoint.save_config(args.out, cfg)
+    if name == "stage1":
+        finite, loss_key, on_save = FINITE_METRICS, "loss", None
+        log(f"training stage 1 (GDNet): {st.n_worlds} worlds, {st.iterations} iterations, impl={cfg.sim.impl}, "
+            f"trunk={cfg.net.trunk}, daes={cfg.exploration.daes}, devices={jax.devices()}")
+    else:
+        finite, loss_key = stage23.FINITE_METRICS, "loss_vanet"
+        on_save = lambda i, s: rundir.save_networks(args.out, name, i, s, cfg)  # noqa: E731
+        log(f"training {rundir.DESCRIPTION[name]}: {st.n_worlds} worlds of {st.min_objects}-{st.max_objects} "
+            f"objects, {st.iterations} iterations, decision threshold {float(state.threshold):.4f}, "
+            f"devices={jax.devices()}")
+    state, it, status, grasps, recent = run_chunks(name, fns.program, state, done, st.iterations, out_dir, args,
+                                                   deadline, finite, loss_key, on_save)
+    if end_of_segment(args, name, done, it, t0, status):
+        return 1, None
+    summary = {"stage": name, "iterations": it, "grasp_attempts": grasps, "recent_success_rate": recent}
+    if name != "stage1":
+        summary["threshold"] = float(state.threshold)
+    summary.update(wall_s=round(time.time() - t0, 1), out=out_dir)
+    return summary, (fns.output(state, h) if it >= st.iterations else h)
+
+
+def main_stage1(args, programs: Programs) -> int:
+    """--stage gdnet (stage1): stage 1 only, fresh or resumed."""
+    try:
+        plan = requests.prepare_stage1(args)
+    except ValueError as e:  # config validation / CheckpointError: what to fix
+        return fail(e)
+    if plan.done:
+        print(plan.done, file=sys.stderr)
+        return 0
+    if not args.resume:  # a run directory with no checkpoint (a failed start) is reused: clear what it left
+        leftover = os.path.join(args.out, checkpoint.CHECKPOINT_DIR)
+        if os.path.isdir(leftover):
+            shutil.rmtree(leftover)
+    if plan.raised_from is not None:
+        print(f"stage1.iterations {plan.raised_from} -> {plan.cfg.stage1.iterations} (written to "
+              f"{os.path.join(args.out, checkpoint.CONFIG_FILE)})", file=sys.stderr)
+    t0 = time.time()
+    deadline = None if args.max_minutes is None else t0 + 60 * args.max_minutes
+    summary, _ = run_stage(plan.cfg, args, "stage1", plan.step, pipeline.Handover(), deadline, programs,
+                           plan.arrays)
+    if isinstance(summary, int):
+        return summary
+    print(json.dumps(summary))
+    return 0
+
+
+def _clear_failed_start(out: str) -> None:
+    """A run directory with no checkpoint (a failed start) is reused: clear what it left."""
+    for name in ("checkpoints", "stage2", "stage3", "timings.jsonl", "metrics.jsonl"):
+        path = os.path.join(out, name)
+        if os.path.isdir(path):
+            shutil.rmtree(path)
+        elif os.path.exists(path):
+            os.remove(path)
+
+
+def main_pipeline(args, only, programs: Programs) -> int:
+    """The whole pipeline (only None: GG-CNN, stages 1, 2, 3, each from where it stopped), or
+    stage 2 / 3 alone: the fold of ``vags_jax.stages.pipeline`` with its side effects."""
+    try:
+        plan = requests.prepare_pipeline(args, only)
+    except ValueError as e:
+        return fail(e)
+    cfg = plan.cfg
+    if plan.fresh:
+        _clear_failed_start(args.out)
+    checkpoint.save_config(args.out, cfg)
+    for key, (old, new) in plan.changed.items():
+        print(f"{key} {old} -> {new} (written to {os.path.join(args.out, checkpoint.CONFIG_FILE)})", file=sys.stderr)
+    t0 = time.time()
+    deadline = None if args.max_minutes is None else t0 + 60 * args.max_minutes
+    summaries, h = [], pipeline.Handover()
+    for name in (rundir.ORDER if only is None else (only,)):
+        done, want = rundir.progress(args.out, name), rundir.total(cfg, name)
+        if done >= want:
+            continue
+        if deadline is not None and time.time() > deadline:
+            print(f"stopped after {args.max_minutes} min before {name}; --resume continues", file=sys.stderr)
+            break
+        if name == "ggcnn":
+            ts = time.time()
+            code, summary, params = train_ggcnn_into(cfg, args.out, plan.data_dir, args.quiet, programs)
+            log_timing(args.out, "ggcnn", 0, 1 if code == 0 else 0, time.time() - ts, "done" if code == 0 else "error")
+            if code:
+                return code
+            h = h.replace(ggcnn=params)
+        else:
+            try:
+                programs.env(cfg)
+            except ValueError as e:
+                return fail(e)
+            arrays, plan.stage1_arrays = (plan.stage1_arrays, None) if name == "stage1" else (None, plan.stage1_arrays)
+            summary, h = run_stage(cfg, args, name, done, h, deadline, programs, arrays)
+            if isinstance(summary, int):
+                return summary
+        summaries.append(summary)
+        if summary.get("iterations", want) < want:  # stopped by --max-minutes
+            break
+    status = {n: f"{rundir.progress(args.out, n)}/{rundir.total(cfg, n)}" for n in rundir.ORDER}
+    print(json.dumps({"stages": summaries, "progress": status, "wall_s": round(time.time() - t0, 1),
+                      "out": args.out}))
+    return 0
+
+
+def train(args, programs: Optional[Programs] = None) -> int:
+    """Runs what the parsed ``train.py`` command line asks for -> exit code."""
+    programs = Programs() if programs is None else programs
+    stage = rundir.canonical(args.stage) if args.stage else None
+    if stage == "ggcnn":
+        return main_ggcnn(args, programs)
+    if stage == "stage1":
+        if args.data_dir is not None:
+            return fail("--data-dir is for GG-CNN (--stage ggcnn, or the whole pipeline); drop it for --stage gdnet")
+        return main_stage1(args, programs)
+    return main_pipeline(args, stage, programs)
+
+
+__all__ = ["Programs", "train", "run_chunks", "run_stage", "nonfinite", "handover_from_disk", "FINITE_METRICS"]

@@ -1,0 +1,263 @@
+"""What ``train.py`` checks before anything is built, compiled or written.
+
+Each ``prepare_*`` takes the parsed command line (``args``: config, set, out, resume, stage,
+data_dir, chunk, checkpoint_every, max_minutes, quiet) and returns a plan (``SimpleNamespace``)
+for ``vags_jax.stages.driver``, or raises ``ValueError`` (``CheckpointError``) with one line
+saying what to fix: a bad ``--set`` value, an ``--out`` a run would damage, a damaged or
+foreign run directory, a ``--resume`` that would rewrite the run's config.
+"""
+from __future__ import annotations
+
+import json
+import os
+from types import SimpleNamespace
+
+from vags_jax import cli
+from vags_jax import config as C
+from vags_jax.ggcnn import data as ggcnn_data
+from vags_jax.sim import scene
+from vags_jax.stages import checkpoint, rundir, stage1
+from vags_jax.stages import ggcnn as ggcnn_stage
+
+# What a run directory may hold besides its checkpoints, for --out to be reused by a fresh run
+# when it has no checkpoint yet (a run that failed before its first checkpoint).
+RUN_LEFTOVERS = ("config.json", "metrics.jsonl", "checkpoints", "ggcnn", "stage2", "stage3", "timings.jsonl")
+ITERATION_KEYS = ("stage1.iterations", "stage2.iterations", "stage3.iterations")
+
+
+def _check_out_path(out: str) -> None:
+    """--out names a directory (new or existing), not a file."""
+    if not out:
+        raise ValueError("--out must not be empty")
+    if os.path.exists(out) and not os.path.isdir(out):
+        raise ValueError(f"--out {out!r} is a file, not a directory; choose a run directory")
+
+
+def _check_only_run_files(out: str) -> None:
+    """An existing --out holds only what train.py and eval.py write into a run."""
+    other = sorted(n for n in os.listdir(out) if not n.startswith(".") and n not in RUN_LEFTOVERS
+                   and not n.startswith("eval_"))
+    if other:
+        raise ValueError(f"--out {out!r} is a non-empty directory that is not a run of train.py "
+                         f"(it holds {other[:3]}); choose a new or empty directory")
+
+
+def check_fresh_out(out: str) -> None:
+    """--out for a new run: a new or empty directory, or a run directory with no checkpoint yet
+    (left by a run that failed before its first checkpoint: it is reused)."""
+    _check_out_path(out)
+    if os.path.isdir(out):
+        steps = checkpoint.checkpoint_steps(out)
+        if steps:
+            raise ValueError(f"{out} already holds a run (checkpoint {steps[-1]}); pass --resume to "
+                             f"continue it, or choose another --out")
+        _check_only_run_files(out)
+    cli.check_parent_writable(os.path.join(out, "config.json"), "--out")
+
+
+def check_ggcnn_out(out: str) -> None:
+    """--out for --stage ggcnn: a new or empty directory, or a run directory (stage 1's files
+    are left alone) that holds no GG-CNN checkpoint yet."""
+    _check_out_path(out)
+    if os.path.isdir(out):
+        gdir = ggcnn_stage.ggcnn_dir(out)
+        if os.path.exists(gdir) and not os.path.isdir(gdir):
+            raise ValueError(f"{gdir} is a file, not GG-CNN's directory; move it away or choose another --out")
+        steps = checkpoint.checkpoint_steps(gdir) if os.path.isdir(gdir) else []
+        if steps:
+            raise ValueError(f"{out} already holds a GG-CNN ({gdir}, checkpoint {steps[-1]}); choose another "
+                             f"--out, or delete {gdir} to train it again")
+        _check_only_run_files(out)
+    cli.check_parent_writable(os.path.join(out, "ggcnn", "config.json"), "--out")
+
+
+def prepare_ggcnn(args) -> SimpleNamespace:
+    """--stage ggcnn: the config, --out and --data-dir, checked before anything is built."""
+    if args.resume:
+        raise ValueError("--resume continues a stage-1 (gdnet) run; --stage ggcnn trains GG-CNN from "
+                         "the start (its labelled views are cached): drop --resume")
+    given = [f for f, v in (("--checkpoint-every", args.checkpoint_every), ("--max-minutes", args.max_minutes))
+             if v is not None]
+    if given:
+        raise ValueError(f"{' and '.join(given)} apply to --stage gdnet only; drop them for --stage ggcnn")
+    overrides = C.parse_overrides(args.set)
+    check_ggcnn_out(args.out)
+    cfg = C.replace(C.preset(args.config or "tiny"), **overrides)
+    check_ggcnn_config(cfg)
+    return SimpleNamespace(cfg=cfg, data_dir=check_data_dir(args.data_dir))
+
+
+def check_ggcnn_config(cfg) -> None:
+    """The scene's own checks and GG-CNN's crop against the camera image."""
+    scene.build_spec(cfg)
+    cam, crop = cfg.camera, cfg.ggcnn.crop_size
+    if crop is not None and crop > min(cam.width, cam.height):
+        raise ValueError(f"ggcnn.crop_size = {crop} exceeds the camera image ({cam.width} x {cam.height}); "
+                         f"use at most {min(cam.width, cam.height)} or null (the largest centred square)")
+
+
+def check_data_dir(data_dir) -> str:
+    """--data-dir (default: GG-CNN's cache directory), checked writable -> the path."""
+    data_dir = data_dir if data_dir is not None else ggcnn_data.default_data_dir()
+    if not data_dir:
+        raise ValueError("--data-dir must not be empty")
+    if os.path.exists(data_dir) and not os.path.isdir(data_dir):
+        raise ValueError(f"--data-dir {data_dir!r} is a file, not a directory")
+    cli.check_parent_writable(os.path.join(data_dir, "x"), "--data-dir")
+    return data_dir
+
+
+
+def prepare_stage1(args) -> SimpleNamespace:
+    """Everything that can be checked before building or compiling anything: the config, --out,
+    and with --resume the run's config.json and latest checkpoint (read into host memory and
+    checked against the config).  Raises ValueError (CheckpointError) with what to fix;
+    ``.done`` is a message when the run has nothing left to train."""
+    overrides = C.parse_overrides(args.set)
+    if not args.resume:
+        check_fresh_out(args.out)
+        cfg = C.replace(C.preset(args.config or "tiny"), **overrides)
+        scene.build_spec(cfg)  # the scene's own checks (shape names), in milliseconds
+        return SimpleNamespace(cfg=cfg, step=0, arrays=None, done=None, raised_from=None)
+
+    if args.config is not None:
+        raise ValueError("--resume takes the run's own config.json; drop --config")
+    bad = [k for k in overrides if k != "stage1.iterations"]
+    if bad:
+        raise ValueError(f"with --resume only stage1.iterations may change (the run's config.json fixes "
+                         f"the rest), got {bad}; start a new run (another --out) to change them")
+    if not os.path.isdir(args.out):
+        raise ValueError(f"run directory {args.out!r} does not exist; drop --resume to start a new run there")
+    run_cfg = checkpoint.load_config(args.out)
+    cfg = C.replace(run_cfg, **overrides)
+    steps = checkpoint.checkpoint_steps(args.out)
+    if not steps:
+        raise ValueError(f"{args.out} has no checkpoint yet (the run stopped before its first one); "
+                         f"start it again without --resume (the directory is reused)")
+    step, total = steps[-1], cfg.stage1.iterations
+    asked = "stage1.iterations" in overrides
+    if total < step:
+        raise ValueError(f"{args.out} is already at iteration {step}: the requested stage1.iterations={total} "
+                         f"are already done, so there is nothing to train (config.json unchanged); "
+                         f"pass stage1.iterations > {step} to train further, or evaluate it with "
+                         f"eval.py --run {args.out}")
+    if total == step:
+        done = (f"{args.out} is already at iteration {step} of {total}: nothing to train (config.json "
+                f"unchanged); pass --set stage1.iterations=N with N > {step} to train further")
+        return SimpleNamespace(cfg=cfg, step=step, arrays=None, done=done, raised_from=None)
+    check_metrics_file(args.out)
+    arrays = read_stage1_checkpoint(args.out, cfg, step)
+    raised = run_cfg.stage1.iterations if asked and total != run_cfg.stage1.iterations else None
+    if raised is not None:
+        check_not_built_on(args.out, "stage1")
+    return SimpleNamespace(cfg=cfg, step=step, arrays=arrays, done=None, raised_from=raised)
+
+
+def read_stage1_checkpoint(out: str, cfg, step: int) -> dict:
+    """Stage 1's checkpoint ``step`` read into host memory and checked against the config
+    (before anything is compiled) -> its arrays for ``checkpoint.fit``."""
+    arrays, step = checkpoint.read(out, step)
+    checkpoint.check_layout(out, step, arrays, stage1.checkpoint_layout(cfg))
+    saved_it = int(arrays["iteration"]["00000"])  # check_layout found the one () int32 leaf
+    if saved_it != step:
+        raise checkpoint.CheckpointError(
+            f"checkpoint {step} in {out} holds iteration {saved_it}, not {step}: it was not "
+            f"written by train.py for this run; start a new run")
+    return arrays
+
+
+def check_not_built_on(out: str, name: str) -> None:
+    """A stage's iterations may change only while no later stage has started from its end."""
+    later = rundir.ORDER[rundir.ORDER.index(name) + 1:]
+    started = [n for n in later if n != "ggcnn" and rundir.progress(out, n) > 0]
+    if started:
+        raise ValueError(f"{rundir.DESCRIPTION[started[0]]} in {out} already started from the end of "
+                         f"{rundir.DESCRIPTION[name]}: {name}.iterations can no longer change; start a "
+                         f"new run (another --out) to train {name} longer")
+
+
+def check_metrics_file(run_dir: str) -> None:
+    """metrics.jsonl of a run (stage) to resume: every line a JSON object with an "iteration"."""
+    path = os.path.join(run_dir, "metrics.jsonl")
+    if not os.path.exists(path):
+        return
+    n = 0
+    try:
+        with open(path, encoding="utf-8") as f:
+            for n, line in enumerate(f, 1):
+                if line.strip() and not isinstance(json.loads(line).get("iteration"), int):
+                    raise ValueError('no "iteration"')
+    except (OSError, UnicodeDecodeError, ValueError, AttributeError) as e:
+        raise ValueError(f"{path} is damaged at line {n} ({cli.first_line(e)}); delete that line "
+                         f"(or the file, losing the logged curves) and resume again") from None
+
+
+
+def prepare_pipeline(args, only):
+    """The whole pipeline (``only`` None) or stage 2 / 3 alone: config, --out, and what is left
+    to train, checked before anything is built.  Raises ValueError with what to fix."""
+    from vags_jax import config as C
+
+    overrides = C.parse_overrides(args.set)
+    fresh = only is None and not args.resume
+    if fresh:
+        check_fresh_out(args.out)
+        cfg = C.replace(C.preset(args.config or "tiny"), **overrides)
+        check_ggcnn_config(cfg)
+        if os.path.isdir(args.out):  # a GG-CNN already trained into --out with this config is reused
+            why = rundir.ggcnn_reusable(args.out, cfg)
+            if why:
+                raise ValueError(why)
+        return SimpleNamespace(cfg=cfg, fresh=True, changed={}, data_dir=check_data_dir(args.data_dir),
+                               stage1_arrays=None)
+    what = "--resume" if only is None else f"--stage {only}"
+    if args.config is not None:
+        raise ValueError(f"{what} takes the run's own config.json; drop --config")
+    allowed = ITERATION_KEYS if only is None else (f"{only}.iterations",)
+    bad = [k for k in overrides if k not in allowed]
+    if bad:
+        raise ValueError(f"with {what} only {' / '.join(allowed)} may change (the run's config.json fixes the "
+                         f"rest), got {bad}; start a new run (another --out) to change them")
+    _check_out_path(args.out)
+    if not os.path.isdir(args.out):
+        hint = "drop --resume to start a new run there" if only is None else (
+            f"train the stages before {only} first (python train.py --out {args.out} runs them all)")
+        raise ValueError(f"run directory {args.out!r} does not exist; {hint}")
+    run_cfg = checkpoint.load_config(args.out)
+    cfg = C.replace(run_cfg, **overrides)
+    if only is None and not any(rundir.progress(args.out, n) for n in rundir.ORDER):
+        raise ValueError(f"{args.out} has no checkpoint yet (the run stopped before its first one); "
+                         f"start it again without --resume (the directory is reused)")
+    changed = {}
+    for key in overrides:
+        name = key.split(".")[0]
+        old, new = getattr(run_cfg, name).iterations, getattr(cfg, name).iterations
+        done = rundir.progress(args.out, name)
+        if new < done:
+            raise ValueError(f"{args.out} is already at iteration {done} of {name}: the requested {key}={new} are "
+                             f"already done, so there is nothing to train (config.json unchanged); pass "
+                             f"{key} > {done} to train further")
+        if new != old:
+            check_not_built_on(args.out, name)
+            changed[key] = (old, new)
+    names = rundir.ORDER if only is None else (only,)
+    for name in names:
+        d = rundir.stage_dir(args.out, name)
+        if name != "ggcnn" and rundir.progress(args.out, name) > 0:
+            check_metrics_file(d)
+    if only is not None:  # its prerequisites: every earlier stage complete
+        for name in rundir.ORDER[:rundir.ORDER.index(only)]:
+            done, want = rundir.progress(args.out, name), rundir.total(cfg, name)
+            if done < want:
+                state = "has no checkpoint" if done == 0 else f"reached iteration {done} of {want}"
+                raise ValueError(f"{only} starts from the end of {rundir.DESCRIPTION[name]}, and {args.out} "
+                                 f"{state} there: run python train.py --out {args.out} --resume (every stage "
+                                 f"in order) or --stage {name} first")
+    data_dir = check_data_dir(args.data_dir) if only is None and rundir.progress(args.out, "ggcnn") == 0 else None
+    if only is None and rundir.progress(args.out, "ggcnn") == 0:
+        check_ggcnn_config(cfg)
+    stage1_arrays = None
+    done1 = rundir.progress(args.out, "stage1")
+    if only is None and 0 < done1 < cfg.stage1.iterations:  # checked now, not after GG-CNN's minutes
+        stage1_arrays = read_stage1_checkpoint(args.out, cfg, done1)
+    return SimpleNamespace(cfg=cfg, fresh=False, changed=changed, data_dir=data_dir, stage1_arrays=stage1_arrays)
