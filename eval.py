@@ -79,6 +79,9 @@ def parse_args(argv=None):
                    help="rounds per group = parallel worlds (default: benchmark.rounds, 50)")
     p.add_argument("--seed", type=cli.int_in(0, 2**32 - 1), default=None,
                    help="PRNG seed (default: the config's seed)")
+    p.add_argument("--seeds", default=None, metavar="S1,S2,...",
+                   help="several seeds, each a full table, compiled once: --out must hold {seed} (default: "
+                        "RUN/eval_<policy>_seed<S>.json); prints each seed's overall figures and their mean")
     p.add_argument("--step", type=cli.int_in(0), default=None, help="checkpoint step for gdnet (default: latest)")
     p.add_argument("--out", default=None, help="JSON report path (default: RUN/eval_<policy>.json)")
     p.add_argument("--speed", type=cli.positive_float(100.0), default=None,
@@ -111,6 +114,22 @@ def parse_groups(text: str) -> list[int]:
     except ValueError:
         raise ValueError(f"--groups {text!r}: expected object counts like 1,2,3 or 1-10") from None
     return sorted(set(out))
+
+
+def parse_seeds(text: str) -> list[int]:
+    """"11,12,13" -> [11, 12, 13] (distinct seeds in 0 .. 2**32 - 1, in the order given)."""
+    try:
+        seeds = [int(t) for t in text.split(",")]
+    except ValueError:
+        seeds = []
+    if not seeds or any(not 0 <= x < 2**32 for x in seeds) or len(set(seeds)) != len(seeds):
+        raise ValueError(f"--seeds {text!r}: expected distinct seeds in 0..{2**32 - 1} like 11,12,13")
+    return seeds
+
+
+def seed_path(out: str, seed: int) -> str:
+    """--out of one seed of --seeds: ``{seed}`` in ``out`` replaced by the seed."""
+    return out.replace("{seed}", str(seed))
 
 
 def check_rounds_fit(cfg, rounds: int, n_groups: int = 1) -> None:
@@ -175,6 +194,15 @@ def main(argv=None) -> int:
                                     ("--record", args.record)) if v]
         if vags_only and policy != "vags":
             raise ValueError(f"{vags_only[0]} is for --policy vags, not {policy}")
+        seeds = [args.seed] if args.seeds is None else parse_seeds(args.seeds)
+        if args.seeds is not None:
+            given = [f for f, v in (("--seed", args.seed is not None), ("--threshold-sweep", args.threshold_sweep),
+                                    ("--quantile-sweep", args.quantile_sweep), ("--record", args.record),
+                                    ("--plot", args.plot)) if v]
+            if given:
+                raise ValueError(f"--seeds plays whole tables only; drop {given[0]} (or give one seed with --seed)")
+            if args.out is not None and "{seed}" not in args.out:
+                raise ValueError(f"--out {args.out!r} must contain {{seed}} with --seeds, e.g. res/seed{{seed}}/eval.json")
         if args.no_viewpoint and (args.threshold is not None or args.threshold_sweep or args.quantile_sweep):
             raise ValueError("--no-viewpoint fixes the threshold at -inf: drop --threshold and the sweeps")
         if args.threshold is not None and not math.isfinite(args.threshold):
@@ -213,7 +241,8 @@ def main(argv=None) -> int:
         if args.step is not None and policy not in ("gdnet", "vags"):
             raise ValueError(f"--step selects a gdnet or vags checkpoint; policy {policy!r} uses none: drop --step")
         if args.out is not None:
-            cli.check_writable_file(args.out, "--out")
+            for seed in seeds:
+                cli.check_writable_file(args.out if args.seeds is None else seed_path(args.out, seed), "--out")
         groups = None if args.groups is None else parse_groups(args.groups)
         overrides = C.parse_overrides(args.set)
         if args.speed is not None:
@@ -290,8 +319,10 @@ def main(argv=None) -> int:
         out = args.out
         if out is None and args.run:
             tag = "".join(f"_{t}" for t in (args.objects, args.scenes) if t)
+            tag += "" if args.seeds is None else "_seed{seed}"
             out = os.path.join(args.run, f"eval_{name}{tag}" + (f"_step{step}" if step is not None else "") + ".json")
-            cli.check_writable_file(out, "--run")
+            for seed in seeds:
+                cli.check_writable_file(seed_path(out, seed), "--run")
         sweep_out = None
         if sweep_abs or sweep_q:
             sweep_out = os.path.splitext(out)[0] + "_sweep.json" if out else None
@@ -314,18 +345,26 @@ def main(argv=None) -> int:
     pol = E.make_policy(policy, cfg, variables, ggcnn_params, networks, threshold)
     if policy == "vags":
         pol = dataclasses.replace(pol, name=name)
-    report = E.evaluate(cfg, pol, groups, rounds, args.seed, time_model, ev, log=log)
     extra = {"run": args.run, "checkpoint_step": step}
-    if policy == "vags":
-        report["threshold"] = float(np.asarray(pol.params["threshold"]))
-        extra["networks"] = networks.source
-        log(f"decision threshold {report['threshold']:.4f}")
-    print(E.format_table(report))
-    if out:
-        E.save_report(report, out, cfg, extra)
-        report_files.write_csv(report, os.path.splitext(out)[0] + ".csv",
-                               {"threshold": report["threshold"]} if "threshold" in report else None)
-        log(f"wrote {out} and {os.path.splitext(out)[0]}.csv")
+    overall = {}
+    for seed in seeds:  # one Evaluator: every seed reuses the programs the first one compiled
+        if args.seeds is not None:
+            print(f"\nseed {seed}")
+        report = E.evaluate(cfg, pol, groups, rounds, seed, time_model, ev, log=log)
+        if policy == "vags":
+            report["threshold"] = float(np.asarray(pol.params["threshold"]))
+            extra["networks"] = networks.source
+            log(f"decision threshold {report['threshold']:.4f}")
+        print(E.format_table(report))
+        overall[report["seed"]] = report["overall"]
+        path = out if args.seeds is None or not out else seed_path(out, seed)
+        if path:
+            E.save_report(report, path, cfg, extra)
+            report_files.write_csv(report, os.path.splitext(path)[0] + ".csv",
+                                   {"threshold": report["threshold"]} if "threshold" in report else None)
+            log(f"wrote {path} and {os.path.splitext(path)[0]}.csv")
+    if args.seeds is not None:
+        print(format_seeds(name, overall))
     if sweep_abs or sweep_q:
         rows = run_sweep(cfg, ev, pol, report, sweep_abs, sweep_q, groups, rounds, args.seed, time_model, log)
         print(format_sweep(rows))
@@ -345,6 +384,22 @@ def main(argv=None) -> int:
 
         record_rounds(cfg, ev, pol.params, report["seed"], groups, args.record_rounds, rounds, args.record, log)
     return 0
+
+
+def format_seeds(name: str, overall: dict) -> str:
+    """A Markdown table of each seed's overall figures (``{seed: report["overall"]}``) and their mean."""
+    keys = [("grasp_success_rate", "grasp success %", 100), ("clearing_rate", "clearing %", 100),
+            ("motion_number", "motion number", 1), ("viewpoint_rate", "viewpoint %", 100)]
+    fmt = lambda x, m: "-" if x is None else f"{x * m:.{1 if m == 100 else 2}f}"  # noqa: E731
+    lines = [f"| {name}: seed | " + " | ".join(k[1] for k in keys) + " |", "|---" * (len(keys) + 1) + "|"]
+    for seed, o in overall.items():
+        lines.append(f"| {seed} | " + " | ".join(fmt(o.get(k), m) for k, _, m in keys) + " |")
+    mean = []
+    for k, _, m in keys:
+        vals = [o.get(k) for o in overall.values()]
+        mean.append("-" if None in vals else f"**{fmt(sum(vals) / len(vals), m)}**")
+    lines.append("| **mean** | " + " | ".join(mean) + " |")
+    return "\n".join(lines)
 
 
 def run_sweep(cfg, ev, pol, report, sweep_abs, sweep_q, groups, rounds, seed, time_model, log) -> list[dict]:
