@@ -5,7 +5,9 @@
 # most 8 files):
 #   1. train   the whole pipeline (train.py --config gpu, RUN=runs/vp; --resume once started)
 #   2. eval    VAGS and --no-viewpoint, groups 1-10 x 50 rounds, seeds SEEDS (default "11 12 13"),
-#              each a process with eval.py --seeds (compiled once), the two side by side
+#              each one eval.py --seeds (compiled once), one after the other: two side by side
+#              ran out of GPU memory (each process takes 75 % of it; on-demand allocation,
+#              XLA_PYTHON_CLIENT_PREALLOCATE=false, failed a 32.8 GiB allocation in stage 1)
 #   3. states  bench/viewpoint_states.py on 6-10 objects: the run's scenes, then the edge variant
 #   4. sweep   the Fig. 6 quantile sweep, ROUNDS (default 20) rounds a group (plot it where
 #              matplotlib is: report_files.plot_sweep on the sweep's JSON)
@@ -19,7 +21,7 @@ out=${1:?OUT_DIR}
 t_end=$(( $(date +%s) + ${BUDGET:-560} ))
 left() { echo $(( t_end - $(date +%s) )); }
 mkdir -p "$out"
-export PYTHONUNBUFFERED=1 XLA_PYTHON_CLIENT_PREALLOCATE=false
+export PYTHONUNBUFFERED=1
 export JAX_COMPILATION_CACHE_DIR=${JAX_COMPILATION_CACHE_DIR:-/tmp/jax_cache}
 export JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS=0
 run=${RUN:-runs/vp}
@@ -41,7 +43,7 @@ EOF
 }
 
 if ! trained; then
-  if [ -f "$run/config.json" ]; then how=(--resume); else how=(--config "${CONFIG:-gpu}" ${TRAIN_SET:+--set $TRAIN_SET}); fi
+  if [ -d "$run/checkpoints" ]; then how=(--resume); else how=(--config "${CONFIG:-gpu}" ${TRAIN_SET:+--set $TRAIN_SET}); fi
   mins=$(python -c "print(max(0.5, ($(left) - 45) / 60))")
   python train.py "${how[@]}" --out "$run" --checkpoint-every 1000 --max-minutes "$mins" --quiet \
     2>&1 | tee -a "$res/train.txt" | grep -v "^ *$" | tail -4 | cut -c1-600
@@ -56,9 +58,8 @@ if [ -n "$(missing vags)$(missing vags-no-viewpoint)" ]; then
     m=$(missing $p); [ -z "$m" ] && continue
     flag=(); [ "$p" = vags-no-viewpoint ] && flag=(--no-viewpoint)
     timeout $(( $(left) - 10 )) python eval.py --run "$run" "${flag[@]}" --seeds "${m%,}" ${EVAL_ARGS:-} \
-      --out "$res/seed{seed}/eval_$p.json" > "$res/eval_$p.txt" 2>&1 &
+      --out "$res/seed{seed}/eval_$p.json" > "$res/eval_$p.txt" 2>&1
   done
-  wait
   for p in vags vags-no-viewpoint; do grep -A5 "seed |" "$res/eval_$p.txt" || tail -2 "$res/eval_$p.txt"; done
 fi
 
