@@ -85,6 +85,9 @@ def parse_args(argv=None):
                    help="rounds per group = parallel worlds (default: benchmark.rounds, 50)")
     p.add_argument("--seed", type=cli.int_in(0, 2**32 - 1), default=None,
                    help="PRNG seed (default: the config's seed)")
+    p.add_argument("--seeds", default=None, metavar="S1,S2,...",
+                   help="several seeds, each a full table, compiled once: --out must hold {seed} (default: "
+                        "RUN/eval_<policy>_seed<S>.json); prints each seed's overall figures and their mean")
     p.add_argument("--step", type=cli.int_in(0), default=None, help="checkpoint step for gdnet (default: latest)")
     p.add_argument("--out", default=None, help="JSON report path (default: RUN/eval_<policy>.json)")
     p.add_argument("--speed", type=cli.positive_float(100.0), default=None,
@@ -119,18 +122,26 @@ def main(argv=None) -> int:
     pol = P.make_policy(policy, cfg, plan.variables, plan.ggcnn_params, networks, threshold)
     if policy == "vags":
         pol = dataclasses.replace(pol, name=name)
-    report = E.evaluate(cfg, pol, groups, rounds, args.seed, time_model, ev, log=log)
     extra = {"run": args.run, "checkpoint_step": step}
-    if policy == "vags":
-        report["threshold"] = float(np.asarray(pol.params["threshold"]))
-        extra["networks"] = networks.source
-        log(f"decision threshold {report['threshold']:.4f}")
-    print(M.format_table(report))
-    if out:
-        M.save_report(report, out, cfg, extra)
-        reports.write_csv(report, os.path.splitext(out)[0] + ".csv",
-                          {"threshold": report["threshold"]} if "threshold" in report else None)
-        log(f"wrote {out} and {os.path.splitext(out)[0]}.csv")
+    overall = {}
+    for seed in plan.seeds:  # one Evaluator: every seed reuses the programs the first one compiled
+        if args.seeds is not None:
+            print(f"\nseed {seed}")
+        report = E.evaluate(cfg, pol, groups, rounds, seed, time_model, ev, log=log)
+        if policy == "vags":
+            report["threshold"] = float(np.asarray(pol.params["threshold"]))
+            extra["networks"] = networks.source
+            log(f"decision threshold {report['threshold']:.4f}")
+        print(M.format_table(report))
+        overall[report["seed"]] = report["overall"]
+        path = out if args.seeds is None or not out else requests.seed_path(out, seed)
+        if path:
+            M.save_report(report, path, cfg, extra)
+            reports.write_csv(report, os.path.splitext(path)[0] + ".csv",
+                              {"threshold": report["threshold"]} if "threshold" in report else None)
+            log(f"wrote {path} and {os.path.splitext(path)[0]}.csv")
+    if args.seeds is not None:
+        print(M.format_seeds(name, overall))
     if sweep_abs or sweep_q:
         try:
             rows = sweep.run_sweep(cfg, ev, pol, report, sweep_abs, sweep_q, groups, rounds, args.seed, time_model, log)

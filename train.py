@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
-"""Train VAGS in batched MJX worlds: GG-CNN, then stage 1 (GDNet), stage 2 (VANet, GDNet frozen)
-and stage 3 (both, alternating) -- the whole pipeline with no --stage, or one stage.
+"""Train VAGS in batched MJX worlds: GG-CNN (when the run needs it), then stage 1 (GDNet), stage 2
+(VANet, GDNet frozen) and stage 3 (both, alternating) -- the whole pipeline with no --stage, or
+one stage.
 
     python train.py --config tiny --out runs/tiny          # the whole pipeline, CPU, minutes
     python train.py --config gpu --out runs/gpu            # one H100/H200, impl "warp"
@@ -14,8 +15,10 @@ Stages (--stage): ggcnn; stage1 (alias gdnet); stage2 (alias vanet); stage3 (ali
 Writes into --out: config.json; stage 1's metrics.jsonl and checkpoints/ (orbax); ggcnn/
 (checkpoints/, config.json, metrics.json); stage2/ and stage3/ (checkpoints/, metrics.jsonl);
 timings.jsonl (wall-clock of every stage segment).  Every metrics row names its stage.
-Stage 2 starts from stage 1's final GDNet and the run's GG-CNN; stage 3 from stage 2's final
-networks and decision threshold.  GG-CNN's labelled views are cached (--data-dir), so a
+The pipeline trains GG-CNN only when the close-view planner uses it (vags.local_planner=ggcnn)
+or vags.train_ggcnn is true (for eval.py --policy ggcnn); --stage ggcnn adds one to a run later.
+Stage 2 starts from stage 1's final GDNet (and the run's GG-CNN, if it has one); stage 3 from
+stage 2's final networks and decision threshold.  GG-CNN's labelled views are cached (--data-dir), so a
 pipeline stopped inside GG-CNN's training trains it again from the cached views.
 
 Every input is checked before anything is compiled or written: a bad flag, --set value or run
@@ -47,7 +50,8 @@ def parse_args(argv=None):
     p.add_argument("--out", required=True, help="run directory")
     p.add_argument("--stage", choices=STAGES, default=None,
                    help="one stage only: ggcnn (GG-CNN, into --out/ggcnn), stage1 = gdnet (GDNet), "
-                        "stage2 = vanet (VANet, GDNet frozen; needs stage 1 and GG-CNN in --out), "
+                        "stage2 = vanet (VANet, GDNet frozen; needs stage 1 in --out, and GG-CNN when "
+                        "vags.local_planner=ggcnn), "
                         "stage3 = alternate (both; needs stage 2).  Default: the whole pipeline")
     p.add_argument("--data-dir", default=None,
                    help="GG-CNN's labelled views are cached here (default ~/.cache/vags_jax/ggcnn); a run "

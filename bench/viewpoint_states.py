@@ -155,6 +155,8 @@ def main(argv=None) -> int:
     p.add_argument("--worlds", type=int, default=256)
     p.add_argument("--steps", type=int, default=8, help="attempts per world (states measured per world)")
     p.add_argument("--seed", type=int, default=1234)
+    p.add_argument("--scenes", default=None, choices=("edge", "legacy"),
+                   help="a scene variant of eval.py --scenes (default: the run's scenes)")
     p.add_argument("--set", nargs="*", default=[], metavar="SECTION.FIELD=VALUE")
     p.add_argument("--out", default=None)
     args = p.parse_args(argv)
@@ -167,7 +169,8 @@ def main(argv=None) -> int:
     from vags_jax.env import VagsEnv
 
     lo, hi = (int(x) for x in args.objects.split("-"))
-    cfg = C.replace(checkpoint.load_config(args.run), **C.parse_overrides(args.set))
+    variant = {"edge": C.EDGE_SCENES, "legacy": C.LEGACY_SCENES}.get(args.scenes, {})
+    cfg = C.replace(checkpoint.load_config(args.run), **variant, **C.parse_overrides(args.set))
     if not 1 <= lo <= hi <= cfg.scene.max_objects:
         raise SystemExit(f"--objects {args.objects}: need 1 <= MIN <= MAX <= scene.max_objects = {cfg.scene.max_objects}")
     nets = pipeline.load_vags(args.run, cfg)
@@ -198,7 +201,8 @@ def main(argv=None) -> int:
     if args.out:
         os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
         with open(args.out, "w") as f:
-            json.dump({"run": args.run, "networks": nets.source, "objects": args.objects, "worlds": args.worlds,
+            json.dump({"run": args.run, "networks": nets.source, "scenes": args.scenes or "run's own",
+                       "objects": args.objects, "worlds": args.worlds,
                        "steps": args.steps, "seed": args.seed, "move_cost": cfg.vags.move_cost,
                        "calibration": np.asarray(params["calibration"]).tolist(),
                        "q_threshold": float(nets.q_threshold), "summary": summary,

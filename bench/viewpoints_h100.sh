@@ -1,63 +1,84 @@
 #!/usr/bin/env bash
-# The GPU runs behind bench/RESULTS.md "Viewpoints that pay" (one H100), in stages that each
-# fit one device call (10 minutes).  Everything a stage writes is packed into OUT_DIR/pack.tgz
-# (a device call brings back at most 8 files).
-#   bench/viewpoints_h100.sh OUT_DIR train    the pipeline (bench/vags_h100.sh train, RUN=runs/vp)
-#   bench/viewpoints_h100.sh OUT_DIR eval     VAGS and --no-viewpoint, groups 1-10 x 50 rounds,
-#                                             seeds SEEDS (default "11 12 13")
-#   bench/viewpoints_h100.sh OUT_DIR states   bench/viewpoint_states.py on 6-10 and 1-5 objects
-#   bench/viewpoints_h100.sh OUT_DIR ablate   the paper's planner and gate on the same networks
-#   bench/viewpoints_h100.sh OUT_DIR sweep    the Fig. 6 sweep, ROUNDS (default 20) rounds a group
-# One H100 needs about 25 minutes for train (GG-CNN ~4.4 min, stage 1 ~4.2, stages 2-3 ~6-8),
-# eval (a VAGS table takes over a minute with its compiles) and states; bench/RESULTS.md
-# "Viewpoints that pay" tells how a shorter lease ended.
-# JAX's persistent compilation cache (JAX_COMPILATION_CACHE_DIR, default /tmp/jax_cache) lets
-# the evaluations after the first skip most compiling.
-set -euo pipefail
-out=${1:?OUT_DIR}; stage=${2:?stage}
+# The GPU runs behind bench/RESULTS.md "Viewpoints that pay" (one H100), resumable across device
+# calls of at most 10 minutes.  Every call does what is left, in this order, within BUDGET
+# seconds (default 560), and packs what it made into OUT_DIR/pack.tgz (a call brings back at
+# most 8 files):
+#   1. train   the whole pipeline (train.py --config gpu, RUN=runs/vp; --resume once started)
+#   2. eval    VAGS and --no-viewpoint, groups 1-10 x 50 rounds, seeds SEEDS (default "11 12 13"),
+#              each one eval.py --seeds (compiled once), one after the other: two side by side
+#              ran out of GPU memory (each process takes 75 % of it; on-demand allocation,
+#              XLA_PYTHON_CLIENT_PREALLOCATE=false, failed a 32.8 GiB allocation in stage 1)
+#   3. states  bench/viewpoint_states.py on 6-10 objects: the run's scenes, then the edge variant
+#   4. sweep   the Fig. 6 quantile sweep, ROUNDS (default 20) rounds a group (plot it where
+#              matplotlib is: report_files.plot_sweep on the sweep's JSON)
+#     bench/viewpoints_h100.sh OUT_DIR            (again, until it prints "all done")
+# A piece that would not fit in the budget left is not started.  JAX's persistent compilation
+# cache (/tmp/jax_cache) lets later evaluations skip most compiling.  A dry run on a CPU:
+#   CONFIG=tiny TRAIN_SET="stage1.iterations=2 ..." EVAL_ARGS="--groups 1-2 --rounds 2" OBJECTS=1-3
+#   WORLDS=2 STEPS=1 ROUNDS=2 SWEEP_ARGS="--groups 1-2" RUN=/tmp/vp bench/viewpoints_h100.sh /tmp/vp_out
+set -uo pipefail
+out=${1:?OUT_DIR}
+t_end=$(( $(date +%s) + ${BUDGET:-560} ))
+left() { echo $(( t_end - $(date +%s) )); }
 mkdir -p "$out"
 export PYTHONUNBUFFERED=1
 export JAX_COMPILATION_CACHE_DIR=${JAX_COMPILATION_CACHE_DIR:-/tmp/jax_cache}
 export JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS=0
 run=${RUN:-runs/vp}
-scenes=${SCENES:-default}
-res=runs/results/viewpoints/$scenes
-mkdir -p "$res"
-case $stage in
-  train)
-    RUN=$run bench/vags_h100.sh "$out/train" train || true
-    tar czf "$out/pack.tgz" -C "$out" train ;;
-  eval)
-    for s in ${SEEDS:-11 12 13}; do
-      mkdir -p "$res/seed$s"
-      for p in vags vags-no-viewpoint; do
-        flag=(); [ "$p" = vags-no-viewpoint ] && flag=(--no-viewpoint)
-        python eval.py --run "$run" "${flag[@]}" --seed "$s" --out "$res/seed$s/eval_$p.json" ${EVAL_SET:-} \
-          > "$res/seed$s/eval_$p.txt" 2>&1 || true
-        echo "seed $s $p: $(grep '^| \*\*overall' "$res/seed$s/eval_$p.txt" || tail -1 "$res/seed$s/eval_$p.txt")"
-      done
-    done
-    tar czf "$out/pack.tgz" -C runs results ;;
-  states)
-    for objs in 6-10 1-5; do
-      python bench/viewpoint_states.py --run "$run" --objects "$objs" --worlds "${WORLDS:-512}" --steps "${STEPS:-8}" \
-        --out "$res/states_$objs.json" > "$res/states_$objs.txt" 2>&1 || true
-      grep '^|' "$res/states_$objs.txt" || tail -3 "$res/states_$objs.txt"
-    done
-    tar czf "$out/pack.tgz" -C runs results ;;
-  ablate)
-    s=${SEED:-11}; mkdir -p "$res/seed$s"
-    for v in "ggcnn-planner:vags.local_planner=ggcnn" "q-gate:vags.gate=q" "paper:vags.local_planner=ggcnn vags.gate=q"; do
-      name=${v%%:*}; sets=${v#*:}
-      python eval.py --run "$run" --seed "$s" --out "$res/seed$s/eval_vags-$name.json" --set $sets \
-        > "$res/seed$s/eval_vags-$name.txt" 2>&1 || true
-      echo "seed $s $name: $(grep '^| \*\*overall' "$res/seed$s/eval_vags-$name.txt" || tail -1 "$res/seed$s/eval_vags-$name.txt")"
-    done
-    tar czf "$out/pack.tgz" -C runs results ;;
-  sweep)
-    python eval.py --run "$run" --rounds "${ROUNDS:-20}" --seed "${SEED:-11}" --quantile-sweep 0:1:0.1 --out "$res/eval_vags_r${ROUNDS:-20}.json" --plot "$res/fig7_r${ROUNDS:-20}.png" \
-      > "$res/sweep.txt" 2>&1 || true
-    grep '^|' "$res/sweep.txt" | tail -25
-    tar czf "$out/pack.tgz" -C runs results ;;
-  *) echo "unknown stage $stage"; exit 2 ;;
-esac
+res=runs/results/viewpoints/default
+mkdir -p "$res" runs/results/viewpoints/edge
+pack() { cp "$run/timings.jsonl" "$res/timings_h100.jsonl" 2>/dev/null
+         for s in . stage2 stage3; do [ -f "$run/$s/metrics.jsonl" ] && cp "$run/$s/metrics.jsonl" "$res/metrics_${s/./stage1}.jsonl"; done
+         tar czf "$out/pack.tgz" -C runs results; }
+trained() { python - "$run" <<'EOF'
+import sys
+from vags_jax import checkpoint, pipeline
+run = sys.argv[1]
+try:
+    cfg = checkpoint.load_config(run)
+except Exception:
+    sys.exit(1)
+sys.exit(0 if all(pipeline.progress(run, n) >= pipeline.total(cfg, n) for n in pipeline.ORDER) else 1)
+EOF
+}
+
+if ! trained; then
+  if [ -d "$run/checkpoints" ]; then how=(--resume); else how=(--config "${CONFIG:-gpu}" ${TRAIN_SET:+--set $TRAIN_SET}); fi
+  mins=$(python -c "print(max(0.5, ($(left) - 45) / 60))")
+  python train.py "${how[@]}" --out "$run" --checkpoint-every 1000 --max-minutes "$mins" --quiet \
+    2>&1 | tee -a "$res/train.txt" | grep -v "^ *$" | tail -4 | cut -c1-600
+  trained || { echo "training not done yet: call again"; pack; exit 0; }
+fi
+
+seeds=${SEEDS:-11 12 13}
+missing() { for s in $seeds; do [ -f "$res/seed$s/eval_$1.json" ] || printf '%s,' "$s"; done; }
+if [ -n "$(missing vags)$(missing vags-no-viewpoint)" ]; then
+  if [ "$(left)" -lt 200 ]; then echo "no time for the evaluations: call again"; pack; exit 0; fi
+  for p in vags vags-no-viewpoint; do
+    m=$(missing $p); [ -z "$m" ] && continue
+    flag=(); [ "$p" = vags-no-viewpoint ] && flag=(--no-viewpoint)
+    timeout $(( $(left) - 10 )) python eval.py --run "$run" "${flag[@]}" --seeds "${m%,}" ${EVAL_ARGS:-} \
+      --out "$res/seed{seed}/eval_$p.json" > "$res/eval_$p.txt" 2>&1
+  done
+  for p in vags vags-no-viewpoint; do grep -A5 "seed |" "$res/eval_$p.txt" || tail -2 "$res/eval_$p.txt"; done
+fi
+
+for v in default edge; do
+  f=runs/results/viewpoints/$v/states_6-10.json
+  [ -f "$f" ] && continue
+  if [ "$(left)" -lt 150 ]; then echo "no time for states ($v): call again"; pack; exit 0; fi
+  scen=(); [ "$v" = edge ] && scen=(--scenes edge)
+  timeout $(( $(left) - 10 )) python bench/viewpoint_states.py --run "$run" "${scen[@]}" --objects "${OBJECTS:-6-10}" \
+    --worlds "${WORLDS:-256}" --steps "${STEPS:-3}" --out "$f" > "${f%.json}.txt" 2>&1
+  grep '^|' "${f%.json}.txt" | head -8 || tail -3 "${f%.json}.txt"
+done
+
+r=${ROUNDS:-20}
+if [ ! -f "$res/eval_vags_r${r}_sweep.json" ]; then
+  if [ "$(left)" -lt 200 ]; then echo "no time for the sweep: call again"; pack; exit 0; fi
+  timeout $(( $(left) - 10 )) python eval.py --run "$run" --rounds "$r" --seed 11 --quantile-sweep 0:1:0.1 ${SWEEP_ARGS:-} \
+    --out "$res/eval_vags_r$r.json" > "$res/sweep.txt" 2>&1
+  grep '^|' "$res/sweep.txt" | tail -14
+fi
+pack
+echo "all done"

@@ -877,10 +877,10 @@ def test_command_line_exit_code_2_one_line(script, argv, msg, tmp_path, fake_run
 # ----------------------------------------------------------------------------- stages 2, 3 and VAGS evaluation
 
 @pytest.mark.parametrize("argv,msg", [
-    (["--stage", "stage2"], r"stage2 starts from the end of GG-CNN on physics-labelled views, and .* has no "
-                            r"checkpoint there: run python train\.py --out .* --resume \(every stage in order\) "
-                            r"or --stage ggcnn first"),
-    (["--stage", "alternate"], r"stage3 starts from the end of GG-CNN"),
+    (["--stage", "stage2"], r"stage2 starts from the end of stage 1: GDNet, and .* reached iteration 4 of 8 "
+                            r"there: run python train\.py --out .* --resume \(every stage in order\) "
+                            r"or --stage stage1 first"),
+    (["--stage", "alternate"], r"stage3 starts from the end of stage 1"),
     (["--stage", "stage3", "--set", "dqn.gamma=0.3"], r"with --stage stage3 only stage3\.iterations may change"),
     (["--stage", "vanet", "--config", "tiny"], r"--stage stage2 takes the run's own config\.json; drop --config"),
     (["--stage", "stage9"], r"argument --stage: invalid choice: 'stage9'"),
@@ -890,6 +890,18 @@ def test_a_later_stage_needs_the_earlier_ones(argv, msg, tmp_path, capsys, fake_
     before = _snapshot(run)
     code, line = _cli(train.main, ["--out", run, "--quiet"] + argv, capsys)
     assert code == 2 and re.search(msg, line), line
+    assert _snapshot(run) == before
+
+
+@pytest.mark.parametrize("setting", ["vags.local_planner", "vags.train_ggcnn"])
+def test_a_later_stage_needs_ggcnn_only_when_the_run_uses_it(setting, tmp_path, capsys, fake_run):
+    run = fake_run(tmp_path)
+    value = "ggcnn" if setting == "vags.local_planner" else True
+    checkpoint.save_config(run, C.replace(checkpoint.load_config(run), **{setting: value}))
+    before = _snapshot(run)
+    code, line = _cli(train.main, ["--out", run, "--quiet", "--stage", "stage2"], capsys)
+    assert code == 2 and re.search(r"stage2 starts from the end of GG-CNN on physics-labelled views, and .* has "
+                                   r"no checkpoint there: .* or --stage ggcnn first", line), line
     assert _snapshot(run) == before
 
 

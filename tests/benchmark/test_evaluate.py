@@ -1,5 +1,8 @@
 """Benchmark protocol (vags_jax.benchmark.protocol, eval.py): metrics by hand, bad inputs, one tiny run."""
 import json
+import os
+import re
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -17,6 +20,8 @@ from vags_jax.stages import rundir
 from vags_jax.env import EnvState
 from vags_jax.nets import init_qnet, make_qnet
 from vags_jax.stages.stage1 import Stage1State
+
+from conftest import TINY_TEST_OVERRIDES
 
 
 def _outcomes(**kw):
@@ -236,3 +241,42 @@ def test_batched_groups_have_the_scenes_of_one_batch_per_group(tiny_eval):
     for a, b in ((alone.sim.data.qpos, batched.sim.data.qpos), (alone.sim.active, batched.sim.active),
                  (alone.sim.geom_rgb, batched.sim.geom_rgb), (alone.sim.obj_size, batched.sim.obj_size)):
         np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+
+
+def test_seeds_write_one_report_per_seed_from_one_compiled_evaluator(tiny_eval, tmp_path, capsys, monkeypatch):
+    """eval.py --seeds: each seed's report equals that seed's own evaluation, written where
+    {seed} says, from the one Evaluator built (so compiled) once; then each seed's overall."""
+    cfg, ev, _, report = tiny_eval
+    built = []
+
+    def evaluator(c):
+        assert c == cfg
+        built.append(c)
+        return ev
+
+    monkeypatch.setattr(E, "Evaluator", evaluator)
+    sets = [f"{k}={v}" for k, v in {**TINY_TEST_OVERRIDES, "benchmark.max_attempts_extra": 1}.items()]
+    out = str(tmp_path / "seed{seed}" / "eval.json")
+    assert eval_cli.main(["--config", "tiny", "--policy", "heuristic", "--groups", "1,2", "--rounds", "2",
+                          "--seeds", "0,5", "--out", out, "--set"] + sets) == 0
+    assert len(built) == 1
+    reports = {}
+    for seed in (0, 5):
+        with open(tmp_path / f"seed{seed}" / "eval.json") as f:
+            reports[seed] = json.load(f)
+        assert reports[seed]["seed"] == seed and os.path.exists(tmp_path / f"seed{seed}" / "eval.csv")
+    assert json.dumps(reports[0]["outcomes"]) == json.dumps(report["outcomes"])
+    assert json.dumps(reports[5]["outcomes"]) != json.dumps(report["outcomes"])
+    table = capsys.readouterr().out
+    assert "| heuristic: seed |" in table and "| 0 |" in table and "| 5 |" in table and "| **mean** |" in table
+
+
+@pytest.mark.parametrize("argv,msg", [
+    (["--seeds", "1,x"], r"--seeds '1,x': expected distinct seeds"),
+    (["--seeds", "3,3"], r"expected distinct seeds"),
+    (["--seeds", "1,2", "--seed", "4"], r"drop --seed"),
+    (["--seeds", "1,2", "--out", "a.json"], r"must contain \{seed\} with --seeds"),
+])
+def test_seeds_errors(argv, msg, capsys):
+    assert eval_cli.main(["--config", "tiny", "--policy", "heuristic"] + argv) == 2
+    assert re.search(msg, capsys.readouterr().err)

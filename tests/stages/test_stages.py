@@ -1,5 +1,5 @@
-"""Training end to end on CPU: the whole pipeline (stages 1, 2 and 3 after a GG-CNN) trained a
-few iterations, checkpointed, resumed inside stages and at stage boundaries, compared bit for bit."""
+"""Training end to end on CPU: the whole pipeline (stages 1, 2 and 3; no GG-CNN, which the default
+close-view planner does not use) trained a few iterations, checkpointed, resumed inside stages and at stage boundaries, compared bit for bit."""
 import json
 import os
 import shutil
@@ -51,12 +51,12 @@ def _with_ggcnn(run):
 
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory, programs):
-    """The whole pipeline uninterrupted (stage 1: 4 iterations, stage 2: 2, stage 3: 4; its
-    GG-CNN already in the run directory, so it is reused), and the same pipeline run piece by
+    """The whole pipeline uninterrupted (stage 1: 4 iterations, stage 2: 2, stage 3: 4; no
+    GG-CNN: the "gdnet" close-view planner needs none), and the same pipeline run piece by
     piece: stage 1 for 2 iterations, resumed to 4; stage 2 alone; stage 3 for 2 iterations
     alone, then the pipeline resumed to stage 3's 4 iterations."""
     root = tmp_path_factory.mktemp("runs")
-    full, split = _with_ggcnn(str(root / "full")), _with_ggcnn(str(root / "split"))
+    full, split = str(root / "full"), str(root / "split")
     base = ["--config", "tiny", "--chunk", "2", "--quiet"]
     assert train.main(base + ["--out", full, "--set"] + _overrides(4), programs) == 0
     assert train.main(base + ["--stage", "gdnet", "--out", split, "--set"] + _overrides(2), programs) == 0
@@ -112,7 +112,8 @@ def test_pipeline_resumed_at_stage_boundaries_matches_uninterrupted_run(runs):
         assert [r["iteration"] for r in ma] == list(range(steps)) and {r["stage"] for r in ma} == {name}
         assert ma == _metrics(os.path.join(split, name, "metrics.jsonl"))
     with open(os.path.join(full, "timings.jsonl")) as f:
-        assert [json.loads(l)["stage"] for l in f] == ["stage1", "stage2", "stage3"]  # GG-CNN was reused
+        assert [json.loads(l)["stage"] for l in f] == ["stage1", "stage2", "stage3"]  # no GG-CNN trained
+    assert not os.path.exists(os.path.join(full, "ggcnn")) and pipeline.load_vags(full).ggcnn is None
 
 
 def test_stage_hand_over(runs):
@@ -164,7 +165,7 @@ def test_pipeline_in_memory_gives_the_networks_train_py_wrote(runs, programs):
     stage 3's GDNet, VANet, success net and re-set threshold."""
     full, _ = runs
     cfg = checkpoint.load_config(full)
-    gg, _ = ggcnn_stage.load_ggcnn(full)  # the GG-CNN the run reused
+    gg = pipeline.ggcnn_params(full, cfg)  # None: the "gdnet" close-view planner needs no GG-CNN
     h1, _ = fold.train_in_memory(cfg, None, names=("stage1",), handover=fold.Handover(ggcnn=gg), chunk=2,
                                  build=lambda name: programs.stage(name, cfg))
     assert checkpoint.tree_equal(h1.gdnet, pipeline.stage1_gdnet(full, cfg))
@@ -340,3 +341,22 @@ def test_checkpoint_from_other_config_is_refused(runs, target):
         checkpoint.restore(runs[0], smaller)
     with pytest.raises(checkpoint.CheckpointError, match="no checkpoint 99"):
         checkpoint.restore(runs[0], target, step=99)
+
+
+def test_ggcnn_is_needed_only_by_its_planner_or_when_asked(tmp_path):
+    """The pipeline trains GG-CNN for the "ggcnn" close-view planner or vags.train_ggcnn; a stage
+    of a run that needs none starts without one, and one the run holds is still loaded."""
+    cfg = C.replace(C.tiny(), **C.parse_overrides(_overrides(4)))
+    run = str(tmp_path / "run")
+    os.makedirs(run)
+    assert not pipeline.needs_ggcnn(cfg) and pipeline.total(cfg, "ggcnn") == 0
+    assert pipeline.ggcnn_params(run, cfg) is None
+    for key, value in (("vags.local_planner", "ggcnn"), ("vags.train_ggcnn", True)):
+        needing = C.replace(cfg, **{key: value})
+        assert pipeline.needs_ggcnn(needing) and pipeline.total(needing, "ggcnn") == 1
+        with pytest.raises(checkpoint.CheckpointError, match=r"stage 2 needs the end of GG-CNN .* --stage ggcnn"):
+            pipeline.ggcnn_params(run, needing)
+    _with_ggcnn(run)
+    params = pipeline.ggcnn_params(run, cfg)
+    assert jax.tree.leaves(params) and all(np.array_equal(a, b) for a, b in zip(
+        jax.tree.leaves(params), jax.tree.leaves(ggcnn_stage.load_ggcnn(run)[0])))

@@ -204,3 +204,19 @@ def save_report(report: dict, path: str, cfg: Optional[Config] = None, extra: Op
     os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
     with open(path, "w") as f:
         json.dump(data, f, indent=1)
+
+
+def format_seeds(name: str, overall: dict) -> str:
+    """A Markdown table of each seed's overall figures (``{seed: report["overall"]}``) and their mean."""
+    keys = [("grasp_success_rate", "grasp success %", 100), ("clearing_rate", "clearing %", 100),
+            ("motion_number", "motion number", 1), ("viewpoint_rate", "viewpoint %", 100)]
+    fmt = lambda x, m: "-" if x is None else f"{x * m:.{1 if m == 100 else 2}f}"  # noqa: E731
+    lines = [f"| {name}: seed | " + " | ".join(k[1] for k in keys) + " |", "|---" * (len(keys) + 1) + "|"]
+    for seed, o in overall.items():
+        lines.append(f"| {seed} | " + " | ".join(fmt(o.get(k), m) for k, _, m in keys) + " |")
+    mean = []
+    for k, _, m in keys:
+        vals = [o.get(k) for o in overall.values()]
+        mean.append("-" if None in vals else f"**{fmt(sum(vals) / len(vals), m)}**")
+    lines.append("| **mean** | " + " | ".join(mean) + " |")
+    return "\n".join(lines)

@@ -44,6 +44,22 @@ def parse_groups(text: str) -> list[int]:
     return sorted(set(out))
 
 
+def parse_seeds(text: str) -> list[int]:
+    """"11,12,13" -> [11, 12, 13] (distinct seeds in 0 .. 2**32 - 1, in the order given)."""
+    try:
+        seeds = [int(t) for t in text.split(",")]
+    except ValueError:
+        seeds = []
+    if not seeds or any(not 0 <= x < 2**32 for x in seeds) or len(set(seeds)) != len(seeds):
+        raise ValueError(f"--seeds {text!r}: expected distinct seeds in 0..{2**32 - 1} like 11,12,13")
+    return seeds
+
+
+def seed_path(out: str, seed: int) -> str:
+    """--out of one seed of --seeds: ``{seed}`` in ``out`` replaced by the seed."""
+    return out.replace("{seed}", str(seed))
+
+
 def check_rounds_fit(cfg, rounds: int, n_groups: int = 1) -> None:
     """rounds x groups worlds run at once: their Q maps must fit (as stage1.n_worlds, config.py)."""
     px = cfg.workspace.heightmap_px
@@ -83,8 +99,8 @@ def run_has_vags(run: str) -> bool:
 
 
 def _check_flags(args):
-    """The flags that need no run or config -> (policy, absolute sweep, quantile sweep, reports to
-    compare)."""
+    """The flags that need no run or config -> (policy, seeds, absolute sweep, quantile sweep,
+    reports to compare)."""
     if args.run is not None and args.run and os.path.isdir(args.run):
         policy = args.policy or ("vags" if run_has_vags(args.run) else "gdnet")
     else:
@@ -96,6 +112,15 @@ def _check_flags(args):
                                 ("--record", args.record)) if v]
     if vags_only and policy != "vags":
         raise ValueError(f"{vags_only[0]} is for --policy vags, not {policy}")
+    seeds = [args.seed] if args.seeds is None else parse_seeds(args.seeds)
+    if args.seeds is not None:
+        given = [f for f, v in (("--seed", args.seed is not None), ("--threshold-sweep", args.threshold_sweep),
+                                ("--quantile-sweep", args.quantile_sweep), ("--record", args.record),
+                                ("--plot", args.plot)) if v]
+        if given:
+            raise ValueError(f"--seeds plays whole tables only; drop {given[0]} (or give one seed with --seed)")
+        if args.out is not None and "{seed}" not in args.out:
+            raise ValueError(f"--out {args.out!r} must contain {{seed}} with --seeds, e.g. res/seed{{seed}}/eval.json")
     if args.no_viewpoint and (args.threshold is not None or args.threshold_sweep or args.quantile_sweep):
         raise ValueError("--no-viewpoint fixes the threshold at -inf: drop --threshold and the sweeps")
     if args.threshold is not None and not math.isfinite(args.threshold):
@@ -132,8 +157,9 @@ def _check_flags(args):
     if args.step is not None and policy not in ("gdnet", "vags"):
         raise ValueError(f"--step selects a gdnet or vags checkpoint; policy {policy!r} uses none: drop --step")
     if args.out is not None:
-        cli.check_writable_file(args.out, "--out")
-    return policy, sweep_abs, sweep_q, compare
+        for seed in seeds:
+            cli.check_writable_file(args.out if args.seeds is None else seed_path(args.out, seed), "--out")
+    return policy, seeds, sweep_abs, sweep_q, compare
 
 
 def _run_config(args, policy):
@@ -193,7 +219,7 @@ def _eval_config(args, policy, run_cfg, ggcnn_cfg, overrides):
 def prepare_eval(args) -> SimpleNamespace:
     """The plan of an ``eval.py`` command line, every input checked (the flags first, so a bad
     one is refused in about a second; nothing is compiled)."""
-    policy, sweep_abs, sweep_q, compare = _check_flags(args)
+    policy, seeds, sweep_abs, sweep_q, compare = _check_flags(args)
     groups = None if args.groups is None else parse_groups(args.groups)
     overrides = C.parse_overrides(args.set)
     if args.speed is not None:
@@ -220,12 +246,14 @@ def prepare_eval(args) -> SimpleNamespace:
     out = args.out
     if out is None and args.run:
         tag = "".join(f"_{t}" for t in (args.objects, args.scenes) if t)
+        tag += "" if args.seeds is None else "_seed{seed}"
         out = os.path.join(args.run, f"eval_{name}{tag}" + (f"_step{step}" if step is not None else "") + ".json")
-        cli.check_writable_file(out, "--run")
+        for seed in seeds:
+            cli.check_writable_file(seed_path(out, seed), "--run")
     sweep_out = None
     if sweep_abs or sweep_q:
         sweep_out = os.path.splitext(out)[0] + "_sweep.json" if out else None
     return SimpleNamespace(policy=policy, name=name, cfg=cfg, groups=groups, rounds=rounds, networks=networks,
                            variables=variables, step=step, ggcnn_params=ggcnn_params, out=out,
-                           sweep_abs=sweep_abs, sweep_q=sweep_q, sweep_out=sweep_out, compare=compare,
+                           sweep_abs=sweep_abs, sweep_q=sweep_q, sweep_out=sweep_out, compare=compare, seeds=seeds,
                            time_model=time_model)

@@ -660,6 +660,9 @@ class Vags:
       "eq5": paper eq. 5 as reconstructed: ``success_reward`` on success plus ``view_bonus``
       when GDNet's largest Q on the next global view exceeds the one before the move.
     vanet_gamma: VANet's discount (0: its Q estimates the success of the grasp after the move).
+    train_ggcnn: the pipeline (train.py with no --stage) also trains GG-CNN when local_planner
+      is "gdnet", which does not use it (for eval.py --policy ggcnn / ggcnn-close); with "ggcnn"
+      it always does.  ``train.py --stage ggcnn --out RUN`` adds one to a run later.
     GDNet's reward (eq. 3) is ``success_reward`` on success, else 0.
     """
 
@@ -673,6 +676,7 @@ class Vags:
     vanet_gamma: float = 0.0
     success_reward: float = 1.0
     view_bonus: float = 1.0
+    train_ggcnn: bool = False
 
     def __post_init__(self):
         _check(self.local_planner in VAGS_LOCAL_PLANNERS,

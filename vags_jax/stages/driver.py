@@ -396,7 +396,8 @@ def main_pipeline(args, only, programs: Programs) -> int:
         summaries.append(summary)
         if summary.get("iterations", want) < want:  # stopped by --max-minutes
             break
-    status = {n: f"{rundir.progress(args.out, n)}/{rundir.total(cfg, n)}" for n in rundir.ORDER}
+    status = {n: f"{rundir.progress(args.out, n)}/{rundir.total(cfg, n)}" for n in rundir.ORDER
+              if rundir.total(cfg, n) or rundir.progress(args.out, n)}
     print(json.dumps({"stages": summaries, "progress": status, "wall_s": round(time.time() - t0, 1),
                       "out": args.out}))
     return 0

@@ -107,6 +107,8 @@ def train_in_memory(cfg: Config, env: Optional[VagsEnv], ggcnn_data=None, names=
     h = Handover() if handover is None else handover
     metrics = {}
     for name in names:
+        if rundir.total(cfg, name) == 0:  # GG-CNN when the run does not use it
+            continue
         if name == "ggcnn":
             params, metrics[name] = ggcnn_stage.train_ggcnn(cfg, ggcnn_data, ggcnn_stage.train_key(cfg))
             h = h.replace(ggcnn=params)

@@ -203,7 +203,8 @@ def prepare_pipeline(args, only):
     if fresh:
         check_fresh_out(args.out)
         cfg = C.replace(C.preset(args.config or "tiny"), **overrides)
-        check_ggcnn_config(cfg)
+        if rundir.needs_ggcnn(cfg):
+            check_ggcnn_config(cfg)
         if os.path.isdir(args.out):  # a GG-CNN already trained into --out with this config is reused
             why = rundir.ggcnn_reusable(args.out, cfg)
             if why:
@@ -253,8 +254,9 @@ def prepare_pipeline(args, only):
                 raise ValueError(f"{only} starts from the end of {rundir.DESCRIPTION[name]}, and {args.out} "
                                  f"{state} there: run python train.py --out {args.out} --resume (every stage "
                                  f"in order) or --stage {name} first")
-    data_dir = check_data_dir(args.data_dir) if only is None and rundir.progress(args.out, "ggcnn") == 0 else None
-    if only is None and rundir.progress(args.out, "ggcnn") == 0:
+    ggcnn_left = only is None and rundir.progress(args.out, "ggcnn") < rundir.total(cfg, "ggcnn")
+    data_dir = check_data_dir(args.data_dir) if ggcnn_left else None
+    if ggcnn_left:
         check_ggcnn_config(cfg)
     stage1_arrays = None
     done1 = rundir.progress(args.out, "stage1")

@@ -59,10 +59,18 @@ def stage_dir(run_dir: str, name: str) -> str:
     return os.path.join(run_dir, name)
 
 
+def needs_ggcnn(cfg: Config) -> bool:
+    """Whether the pipeline trains GG-CNN: the "ggcnn" close-view planner uses it, and
+    ``vags.train_ggcnn`` asks for it anyway (the GG-CNN baselines of eval.py)."""
+    return cfg.vags.local_planner == "ggcnn" or cfg.vags.train_ggcnn
+
+
 def total(cfg: Config, name: str) -> int:
-    """Iterations of stage ``name`` (GG-CNN: 1, it is done or not)."""
+    """Iterations of stage ``name`` (GG-CNN: 1, it is done or not; 0 when the run does not need it)."""
     name = canonical(name)
-    return 1 if name == "ggcnn" else getattr(cfg, name).iterations
+    if name == "ggcnn":
+        return 1 if needs_ggcnn(cfg) else 0
+    return getattr(cfg, name).iterations
 
 
 def progress(run_dir: str, name: str) -> int:
@@ -111,7 +119,11 @@ def stage1_gdnet(run_dir: str, cfg: Config, for_what: str = "stage 2") -> dqn.Tr
 
 
 def ggcnn_params(run_dir: str, cfg: Config, for_what: str = "stage 2"):
-    """GG-CNN's parameters of the run ({"params"})."""
+    """GG-CNN's parameters of the run ({"params"}); None when the run has none and does not
+    need one (``needs_ggcnn``).  One the run holds is loaded even when not needed, so a stage's
+    state keeps the structure its checkpoints were saved with."""
+    if not needs_ggcnn(cfg) and progress(run_dir, "ggcnn") == 0:
+        return None
     _need(run_dir, cfg, "ggcnn", for_what)
     params, _ = ggcnn_stage.load_ggcnn(run_dir)
     return params
@@ -241,5 +253,5 @@ def load_gdnet(run_dir: str, step: Optional[int] = None):
 
 
 __all__ = ["ORDER", "ALIASES", "DESCRIPTION", "canonical", "stage_dir", "total", "progress", "stage_key",
-           "learner_target", "stage1_gdnet", "ggcnn_params", "stage2_result", "VagsNetworks", "load_vags",
-           "networks_dir", "save_networks", "ggcnn_reusable", "load_gdnet"]
+           "learner_target", "stage1_gdnet", "needs_ggcnn", "ggcnn_params", "stage2_result", "VagsNetworks",
+           "load_vags", "networks_dir", "save_networks", "ggcnn_reusable", "load_gdnet"]

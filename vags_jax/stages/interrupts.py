@@ -1,0 +1,52 @@
+"""Ctrl-C and SIGTERM as a request to stop at the next chunk boundary.
+
+Inside ``with StopRequests() as stop:`` the first SIGINT or SIGTERM only records itself
+(``stop.signal``): the training loop finishes the chunk in flight, saves its checkpoint, logs
+the segment and exits with ``stop.exit_code`` (130 for SIGINT, 143 for SIGTERM, the shell's
+128 + signal number).  A second SIGINT raises KeyboardInterrupt at once, abandoning the chunk
+(the last checkpoint stays).  Outside the main thread, where Python cannot set signal handlers,
+it does nothing.
+"""
+from __future__ import annotations
+
+import signal
+import threading
+from typing import Optional
+
+_SIGNALS = {signal.SIGINT: "SIGINT", signal.SIGTERM: "SIGTERM"}
+
+
+class StopRequests:
+    """Records the first SIGINT / SIGTERM; restores the previous handlers on exit."""
+
+    def __init__(self):
+        self.signal: Optional[str] = None
+        self._old: dict = {}
+
+    @property
+    def requested(self) -> bool:
+        return self.signal is not None
+
+    @property
+    def exit_code(self) -> int:
+        return 128 + (signal.SIGTERM if self.signal == "SIGTERM" else signal.SIGINT)
+
+    def _handle(self, signum, frame) -> None:
+        if self.signal is not None and signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        if self.signal is None:
+            self.signal = _SIGNALS[signum]
+
+    def __enter__(self) -> "StopRequests":
+        if threading.current_thread() is threading.main_thread():
+            for s in _SIGNALS:
+                self._old[s] = signal.signal(s, self._handle)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for s, old in self._old.items():
+            signal.signal(s, old)
+        self._old = {}
+
+
+__all__ = ["StopRequests"]
