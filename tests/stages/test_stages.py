@@ -43,7 +43,7 @@ def _metrics(path):
 
 def _with_ggcnn(run):
     """A GG-CNN in ``run`` for the test config (untrained weights: these tests check the
-    pipeline's mechanics, not GG-CNN; tests/test_ggcnn_data.py trains one)."""
+    pipeline's mechanics, not GG-CNN; tests/ggcnn/test_ggcnn_data.py trains one)."""
     cfg = C.replace(C.tiny(), **C.parse_overrides(_overrides(4)))
     ggcnn_stage.save_ggcnn(run, init_ggcnn(jax.random.PRNGKey(3), size=cfg.ggcnn.input_size), {"steps": 0}, cfg)
     return run

@@ -22,62 +22,12 @@ far outside the workspace (their qpos is reset and velocity zeroed after every s
 never move and never touch anything); the gripper is teleported to a park pose 2 m beside the
 workspace between grasps.
 
-Grasp (all worlds, one jitted call; durations from ``cfg.grasp``):
-  0. the gripper is placed (teleported, at rest) with its TCP ``approach_height`` above the
-     grasp point, closing axis at ``yaw``, fingers open.  The grasp point is ``position`` with
-     z clamped to ``>= table_z + min_height_above_table``.  TCP = midpoint of the fingertips.
-     With ``cfg.grasp.descent_clearance`` = c (guarded descent) it is placed lower, at
-     ``descent_start``: c above the highest point (top of the world-frame bounding box) of any
-     active object whose bounding sphere comes within the gripper's reach of the grasp axis, or
-     c above the grasp point if that is higher, capped at ``approach_height`` -- the free-space
-     part of the descent, where nothing can be touched, is not simulated.
-  1. open / settle ``t_settle``;  2. descend to the grasp point ``t_descend`` (smooth profile
-     over the first 75 %, then hold);  3. close ``t_close``;  4. lift by ``lift_height``
-     ``t_lift`` (smooth over the first ``1 - lift_hold`` of it, then hold).
-  Then success is evaluated: an active object rose by more than ``success_lift`` and is above
-  ``table_z + success_lift`` and the pad gap is > ``closed_gap``.  The grasped object is the
-  lifted one nearest to the TCP; it is parked (active False).  The gripper is parked and the
-  scene settles for another ``t_post`` so dropped / disturbed objects come to rest before
-  the next observation.
-  ``grasp_or_reset_batched`` is the same loop where some worlds, instead of grasping, get a
-  new scene (drawn as by ``reset``) that settles while the others grasp; the loop then lasts
-  max(grasp, ``settle_time``) so every new scene gets its full settle time.  Objects that left the workspace square (or fell through the table)
-  are deactivated and parked too, after every reset and grasp.
-  Motion distances (commanded, metres, for a picks-per-hour model): ``approach`` = straight
-  line from ``start`` (default: ``cfg.camera.global_position``, where the eye-in-hand robot
-  captured the global view) to the pre-grasp pose; ``descend`` = pre-grasp to grasp point
-  (= approach_height); ``lift`` = lift_height.  Returning / placing is left to the model.
-
 Yaw convention: ``yaw`` is the angle of the CLOSING axis in the world xy-plane (fingers move
 along (cos yaw, sin yaw)); yaw and yaw + pi are the same grasp (wrapped to [-pi/2, pi/2)).
 
-Buffers and failures (never silently accepted):
-  * impl "warp": contacts and constraint rows live in fixed buffers (``naconmax`` contacts over
-    all worlds, ``njmax`` rows per world).  If ``cfg.sim.naconmax`` / ``njmax`` are None they
-    are sized from the scene: only active objects and the gripper can touch anything (parked
-    bodies are pinned far apart), so per world ``contacts_per_world`` = ``20 * N + 56``
-    contacts unless set (each object on the table 4, object-object ~16 per object, 2 pads x
-    up to 3 objects x 8 + pads on table) and ``3 * that + 16`` rows (6 * that + 16 when capsules or
-    spheres, whose contacts have rolling friction (condim 6), are in the pool) (elliptic condim-3
-    contacts use 3 rows, plus the finger equality and limits).
-    After every step the simulator compares the contact count / rows with the buffers; a full
-    buffer sets ``state.overflow`` for the world (for contacts: every world, the count is
-    global).
-  * impl "jax": MJX jax evaluates every candidate geom pair every step with a fixed number of
-    contact slots per pair (for the default 20-body pool about 1000 contacts and 3000
-    constraint rows per world, almost all between far-apart bodies).  The scene sets MJX's
-    ``max_contact_points`` to ``contacts_per_world`` (same formula / config field as warp), so
-    only the deepest contacts reach the solver.  Overflow = every kept contact penetrates
-    (more may have been dropped): ``state.overflow``.  Tiny scenes with fewer candidate
-    slots than the budget cannot overflow.  Numerical failures (NaNs, an object through the
-    table) set ``state.error`` (both impls).
-  Solver settings (ls_iterations 20, the 2 ms step of MJX jax, impratio 1 in ``tiny``): the
-  measurements are in bench/RESULTS.md, "Environment throughput".
-  Only NaNs and tunnelling are flagged (``error``); objects launched out of the workspace are
-  deactivated (counted as lost by the evaluation), so keep ls_iterations at 20.
-  ``check_overflow(state)`` (host side, between jitted calls) raises ``RuntimeError`` naming
-  the worlds and what to change (or warns with ``warn=True``).  Inside a jitted training loop
-  the flags are carried in the state: reset worlds whose ``error`` is set.
+Grasp phases, success and travel: ``_grasp_impl``.  Contact and constraint buffers, overflow
+and physics failures (never silently accepted: ``SimState.overflow`` / ``error``, and the
+host-side ``check_overflow``): ``Simulator._overflow_now``.
 """
 from __future__ import annotations
 
@@ -341,7 +291,36 @@ class Simulator:
         return mjx.make_data(self.mx, impl="jax")
 
     def _overflow_now(self, d: mjx.Data, B: int) -> jax.Array:
-        """(B,) bool: a contact / constraint buffer is full after this step."""
+        """(B,) bool: a contact / constraint buffer is full after this step.
+
+        Buffers and failures (never silently accepted):
+        * impl "warp": contacts and constraint rows live in fixed buffers (``naconmax`` contacts over
+          all worlds, ``njmax`` rows per world).  If ``cfg.sim.naconmax`` / ``njmax`` are None they
+          are sized from the scene: only active objects and the gripper can touch anything (parked
+          bodies are pinned far apart), so per world ``contacts_per_world`` = ``20 * N + 56``
+          contacts unless set (each object on the table 4, object-object ~16 per object, 2 pads x
+          up to 3 objects x 8 + pads on table) and ``3 * that + 16`` rows (6 * that + 16 when capsules or
+          spheres, whose contacts have rolling friction (condim 6), are in the pool) (elliptic condim-3
+          contacts use 3 rows, plus the finger equality and limits).
+          After every step the simulator compares the contact count / rows with the buffers; a full
+          buffer sets ``state.overflow`` for the world (for contacts: every world, the count is
+          global).
+        * impl "jax": MJX jax evaluates every candidate geom pair every step with a fixed number of
+          contact slots per pair (for the default 20-body pool about 1000 contacts and 3000
+          constraint rows per world, almost all between far-apart bodies).  The scene sets MJX's
+          ``max_contact_points`` to ``contacts_per_world`` (same formula / config field as warp), so
+          only the deepest contacts reach the solver.  Overflow = every kept contact penetrates
+          (more may have been dropped): ``state.overflow``.  Tiny scenes with fewer candidate
+          slots than the budget cannot overflow.  Numerical failures (NaNs, an object through the
+          table) set ``state.error`` (both impls).
+        Solver settings (ls_iterations 20, the 2 ms step of MJX jax, impratio 1 in ``tiny``): the
+        measurements are in bench/RESULTS.md, "Environment throughput".
+        Only NaNs and tunnelling are flagged (``error``); objects launched out of the workspace are
+        deactivated (counted as lost by the evaluation), so keep ls_iterations at 20.
+        ``check_overflow(state)`` (host side, between jitted calls) raises ``RuntimeError`` naming
+        the worlds and what to change (or warns with ``warn=True``).  Inside a jitted training loop
+        the flags are carried in the state: reset worlds whose ``error`` is set.
+        """
         if self.impl != "warp":
             # MJX jax keeps the deepest max_contact_points contacts: full when all kept
             # contacts are penetrating (more may have been dropped).
@@ -720,7 +699,33 @@ class Simulator:
 
     def _grasp_impl(self, state: SimState, position, yaw, start, reset=None):
         """Grasp in every world; with ``reset = (mask (B,), keys (B, 2), n_objects (B,))`` the
-        masked worlds instead get a new scene dropped and settling in the same physics loop."""
+        masked worlds instead get a new scene dropped and settling in the same physics loop.
+
+        Grasp (all worlds, one jitted call; durations from ``cfg.grasp``):
+        0. the gripper is placed (teleported, at rest) with its TCP ``approach_height`` above the
+           grasp point, closing axis at ``yaw``, fingers open.  The grasp point is ``position`` with
+           z clamped to ``>= table_z + min_height_above_table``.  TCP = midpoint of the fingertips.
+           With ``cfg.grasp.descent_clearance`` = c (guarded descent) it is placed lower, at
+           ``descent_start``: c above the highest point (top of the world-frame bounding box) of any
+           active object whose bounding sphere comes within the gripper's reach of the grasp axis, or
+           c above the grasp point if that is higher, capped at ``approach_height`` -- the free-space
+           part of the descent, where nothing can be touched, is not simulated.
+        1. open / settle ``t_settle``;  2. descend to the grasp point ``t_descend`` (smooth profile
+           over the first 75 %, then hold);  3. close ``t_close``;  4. lift by ``lift_height``
+           ``t_lift`` (smooth over the first ``1 - lift_hold`` of it, then hold).
+        Then success is evaluated: an active object rose by more than ``success_lift`` and is above
+        ``table_z + success_lift`` and the pad gap is > ``closed_gap``.  The grasped object is the
+        lifted one nearest to the TCP; it is parked (active False).  The gripper is parked and the
+        scene settles for another ``t_post`` so dropped / disturbed objects come to rest before
+        the next observation.
+        ``grasp_or_reset_batched`` is the same loop where some worlds, instead of grasping, get a
+        new scene (drawn as by ``reset``) that settles while the others grasp; the loop then lasts
+        max(grasp, ``settle_time``) so every new scene gets its full settle time.  Objects that left the workspace square (or fell through the table)
+        are deactivated and parked too, after every reset and grasp.
+        Motion distances (commanded, metres, for a picks-per-hour model): ``approach`` = straight
+        line from ``start`` (default: ``cfg.camera.global_position``, where the eye-in-hand robot
+        captured the global view) to the pre-grasp pose; ``descend`` = pre-grasp to grasp point
+        (= approach_height); ``lift`` = lift_height.  Returning / placing is left to the model."""
         cfg, g = self.cfg, self.cfg.grasp
         B, P = state.n_worlds, self.P
         tz = cfg.workspace.table_z

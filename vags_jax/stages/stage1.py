@@ -17,8 +17,7 @@ One *iteration* is, for every world at once:
 
 Everything is one ``lax.scan`` over iterations inside one jit: no host round trip per step.
 ``Stage1.run(state, n)`` advances n iterations and returns per-iteration metrics, so a caller can
-log and checkpoint between chunks; ``stage1(cfg, key)`` is the whole stage as one pure function
-``key -> (learner, metrics)``.  Running the same chunks from a restored ``Stage1State`` gives
+log and checkpoint between chunks; ``vags_jax.stages.pipeline`` chains it with the other stages.  Running the same chunks from a restored ``Stage1State`` gives
 bit-identical results to an uninterrupted run.
 """
 from __future__ import annotations
@@ -190,14 +189,3 @@ def checkpoint_layout(cfg: Config) -> dict:
     return {"learner": learner, "replay": jax.eval_shape(buffer),
             "key": jax.eval_shape(lambda: jax.random.split(jax.random.PRNGKey(0))[0]),
             "iteration": scalar, "attempts": scalar}
-
-
-def make_stage1(cfg: Config, env: Optional[VagsEnv] = None) -> Stage1:
-    return Stage1(cfg, env)
-
-
-def stage1(cfg: Config, key: jax.Array, learner: Optional[dqn.TrainState] = None):
-    """The whole of stage 1 as one pure function: key -> (GDNet learner, metrics (iterations,))."""
-    stage = Stage1(cfg)
-    state, metrics = stage.run(stage.init(key, learner), cfg.stage1.iterations)
-    return state.learner, metrics

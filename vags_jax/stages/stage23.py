@@ -30,7 +30,7 @@ in stage 3 the decision uses the GDNet of the previous iteration's start.  GG-CN
 
 Everything is one ``lax.scan`` inside one jit.  ``VagsStage.run(state, n)`` advances n
 iterations; running the same chunks from a restored state gives bit-identical results.
-``stage2(...)`` / ``stage3(...)`` are the stages as pure functions.
+``vags_jax.stages.pipeline`` chains them with stage 1 and GG-CNN.
 """
 from __future__ import annotations
 
@@ -362,22 +362,5 @@ def _distinct_buffers(tree):
     return jax.tree.unflatten(treedef, out)
 
 
-def stage2(cfg: Config, key: jax.Array, gdnet: dqn.TrainState, ggcnn_params, env: Optional[VagsEnv] = None):
-    """Stage 2 as one pure function: (key, stage 1's GDNet learner, GG-CNN) -> (VANet learner,
-    success-net learner, threshold, metrics (stage2.iterations,))."""
-    stage = VagsStage(cfg, 2, env)
-    state, metrics = stage.run(stage.init(key, gdnet, ggcnn_params), cfg.stage2.iterations)
-    return state.vanet, state.success, state.threshold, metrics
-
-
-def stage3(cfg: Config, key: jax.Array, gdnet: dqn.TrainState, vanet: dqn.TrainState, success: dqn.TrainState,
-           ggcnn_params, threshold, env: Optional[VagsEnv] = None):
-    """Stage 3 as one pure function -> (GDNet, VANet and success-net learners, the "q" gate's
-    re-set threshold (``final_threshold``), metrics (stage3.iterations,))."""
-    stage = VagsStage(cfg, 3, env)
-    state, metrics = stage.run(stage.init(key, gdnet, ggcnn_params, vanet, threshold, success), cfg.stage3.iterations)
-    return state.gdnet, state.vanet, state.success, final_threshold(state, cfg.vags), metrics
-
-
 __all__ = ["VagsTrainState", "VagsStage", "METRICS", "FINITE_METRICS", "view_reward", "calibrated_threshold",
-           "final_threshold", "stage2", "stage3"]
+           "final_threshold"]
