@@ -40,6 +40,7 @@ from vags_jax.env import VagsEnv
 from vags_jax.policies.catalog import min_width_grasp
 
 
+# Long (one reason): one benchmark's setup, warm-up and timed loops in order.
 def bench_one(cfg, n_worlds, n_objects, repeats, loop_iterations=0, only_loop=False):
     env = VagsEnv(cfg)
     env.prepare(n_worlds)

@@ -86,6 +86,7 @@ def _describe(env: VagsEnv, sim_state, b: int) -> str:
     return ", ".join(out)
 
 
+# Long (one reason): a script's sequence of pictures, each a few lines.
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--out", required=True, help="folder for the pictures")

@@ -124,6 +124,7 @@ def _mesh_halfspaces(mj_model, mesh_id: int, name: str, tol: float = 1e-6):
     return n[first], c[first]
 
 
+# Long (one reason): a single pass over the model's geoms fills every primitive table in step.
 def prepare_geometry(
     mj_model: mujoco.MjModel,
     render_geom_mask=None,

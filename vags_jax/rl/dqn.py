@@ -136,6 +136,7 @@ def huber_loss_at_action(q: jax.Array, action: jax.Array, y: jax.Array, weights:
 # ----------------------------------------------------------------------------- update step
 
 
+# Long (one reason): target, loss and optimizer step share one closure over the config and apply_fn.
 def make_update_step(apply_fn: Callable, cfg: DQN, executed_rotation_only: bool = False) -> Callable:
     """Build ``update(train_state, batch, weights) -> (train_state, metrics, td_errors (b,))``.
 

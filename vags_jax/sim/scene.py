@@ -343,6 +343,7 @@ def contacts_per_world(cfg: Config) -> int:
     return 20 * cfg.scene.max_objects + 56
 
 
+# Long (one reason): the MjSpec edits are one recipe, read top to bottom.
 def build_spec(cfg: Config) -> mujoco.MjSpec:
     """The MjSpec of the full scene (base assets + object pool), not yet compiled."""
     for name in cfg.scene.shapes:
@@ -444,6 +445,7 @@ def build_spec(cfg: Config) -> mujoco.MjSpec:
     return spec
 
 
+# Long (one reason): the compiled model's index tables, gathered in one place for the simulator.
 def build_scene(cfg: Config) -> SceneModel:
     """Compile the scene for ``cfg`` and collect its indices.  Called once per run."""
     spec = build_spec(cfg)

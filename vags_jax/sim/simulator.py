@@ -697,6 +697,7 @@ class Simulator:
 
     # ------------------------------------------------------------------ grasp
 
+    # Long (one reason): one physics loop (lax.scan) with the closures its steps share.
     def _grasp_impl(self, state: SimState, position, yaw, start, reset=None):
         """Grasp in every world; with ``reset = (mask (B,), keys (B, 2), n_objects (B,))`` the
         masked worlds instead get a new scene dropped and settling in the same physics loop.

@@ -241,6 +241,7 @@ class VagsStage:
         thr = state.threshold if gate == "q" else gate_threshold(cfg.vags, state.threshold)
         return Decision(direct=score > thr, grasp=grasp, view=view, q_max=state.gd_qmax, score=score), p_direct, p_view
 
+    # Long (one reason): one iteration of the paper's loop, steps 1-6 of the module docstring in order.
     def _iteration(self, state: VagsTrainState, _):
         cfg, env, st = self.cfg, self.env, self.stage
         key, k_gx, k_vx, k_img, k_obs, k_n, k_reset, k_learn = jax.random.split(state.key, 8)
