@@ -176,26 +176,10 @@ def check_frame_points(depth: np.ndarray, cam_pose: np.ndarray, cam_cfg: Camera,
             f"camera-to-world? another camera convention?), or workspace.table_z is"), stacklevel=3)
 
 
-def heightmap_from_frame(depth, rgb, cam_pose, cam_cfg: Camera, ws_cfg: Workspace):
-    """Heightmaps of ONE real RGB-D frame, with input validation (numpy in, numpy out).
-
-    Args:
-      depth: (h, w) float depth in metres (z along the optical axis); 0, NaN and inf are
-        treated as missing.  (h, w) must equal (cam_cfg.height, cam_cfg.width).
-      rgb: (h, w, 3) uint8 colour image registered to the depth image.
-      cam_pose: (4, 4) camera-to-world transform (OpenCV camera frame) in the robot frame.
-    Returns:
-      color_hm (H, W, 3) uint8 and height_hm (H, W) float32.
-    Raises:
-      ValueError with a hint for wrong shapes, dtypes, millimetre depth, negative depth, a pose
-      that is not a rigid transform, a pose in millimetres (more than 10 m from the origin), a
-      camera at or below the table or one not looking down (a world-to-camera pose, or the
-      OpenGL convention).
-    Warns:
-      FrameWarning when under 1 % of the pixels have depth, no point falls inside the
-      workspace, or over a quarter of the workspace points lie 2 cm or more below the table.
-      All checks run before anything is compiled.
-    """
+def check_frame(depth, rgb, cam_pose, cam_cfg: Camera, ws_cfg: Workspace):
+    """The checks of `heightmap_from_frame` on ONE real RGB-D frame, without projecting it ->
+    ``(depth (h, w) float32 metres, 0 = missing; rgb (h, w, 3) uint8; cam_pose (4, 4) float32)``.
+    Raises ValueError and warns (``FrameWarning``) as `heightmap_from_frame` says."""
     depth = np.asarray(depth)
     rgb = np.asarray(rgb)
     cam_pose = np.asarray(cam_pose)
@@ -241,5 +225,29 @@ def heightmap_from_frame(depth, rgb, cam_pose, cam_cfg: Camera, ws_cfg: Workspac
             "millimetres; divide by 1000 to give metres"
         )
     check_frame_points(depth, cam_pose, cam_cfg, ws_cfg)
-    color, height = heightmaps(depth[None], rgb[None], cam_pose[None].astype(np.float32), cam_cfg, ws_cfg)
+    return depth, rgb, cam_pose.astype(np.float32)
+
+
+def heightmap_from_frame(depth, rgb, cam_pose, cam_cfg: Camera, ws_cfg: Workspace):
+    """Heightmaps of ONE real RGB-D frame, with input validation (numpy in, numpy out).
+
+    Args:
+      depth: (h, w) float depth in metres (z along the optical axis); 0, NaN and inf are
+        treated as missing.  (h, w) must equal (cam_cfg.height, cam_cfg.width).
+      rgb: (h, w, 3) uint8 colour image registered to the depth image.
+      cam_pose: (4, 4) camera-to-world transform (OpenCV camera frame) in the robot frame.
+    Returns:
+      color_hm (H, W, 3) uint8 and height_hm (H, W) float32.
+    Raises:
+      ValueError with a hint for wrong shapes, dtypes, millimetre depth, negative depth, a pose
+      that is not a rigid transform, a pose in millimetres (more than 10 m from the origin), a
+      camera at or below the table or one not looking down (a world-to-camera pose, or the
+      OpenGL convention).
+    Warns:
+      FrameWarning when under 1 % of the pixels have depth, no point falls inside the
+      workspace, or over a quarter of the workspace points lie 2 cm or more below the table.
+      All checks run before anything is compiled.
+    """
+    depth, rgb, cam_pose = check_frame(depth, rgb, cam_pose, cam_cfg, ws_cfg)
+    color, height = heightmaps(depth[None], rgb[None], cam_pose[None], cam_cfg, ws_cfg)
     return np.asarray(color[0]), np.asarray(height[0])

@@ -1,0 +1,501 @@
+"""A trained VAGS policy on RGB-D frames: a real camera's, or frames written from the simulator.
+
+    python -m vags_jax.predict --run RUN --rgb rgb.png --depth depth.png --intrinsics K.json --pose pose.json
+    python -m vags_jax.predict --run RUN ... --local close_rgb.png close_depth.png close_pose.json
+    python -m vags_jax.predict write-frames --run RUN --out frames [--seed 0] [--objects 3] [--at decision.json]
+    python -m vags_jax.predict execute --run RUN --seed 0 --objects 3 --grasp decision.json
+
+The first form prints ONE JSON object: ``"decision": "grasp"`` with the grasp in the world
+frame, or ``"decision": "move"`` with the camera pose to move to, and ``"gate"`` / ``"reason"``:
+the gate's figures against its threshold (docs/method.md, "Decision").  Take the frame at that
+pose and run it again with ``--local``: the close-view grasp (``vags.local_planner`` "gdnet":
+the close view fused into the global heightmaps, GDNet's argmax where it looked; "ggcnn":
+GG-CNN on the close depth image).  ``--out-image`` draws the decision on the frame.
+
+``write-frames`` writes the simulator's frames of a scene (the scene of ``--seed`` with
+``--objects`` objects, dropped and settled as in training) in these formats, from the global
+pose or from ``--at`` (a pose file, or predict's JSON output: its viewpoint); ``execute``
+grasps in that scene as a predict output says and prints the outcome.  So the whole path runs
+without a robot.  README "On a real robot" states the formats and conventions
+(``vags_jax.frames`` reads and writes them).
+
+``FramePolicy`` is the same in Python: it loads a run once (config, networks, threshold and
+calibration) and decides on single frames; its programs are compiled on the first frame of a
+camera and reused.  Every bad input ends the command with one line ``predict: error: ...``
+naming what to fix (exit code 2), before anything is compiled.
+"""
+from __future__ import annotations
+
+import argparse
+import functools
+import json
+import math
+import os
+import sys
+import warnings
+from dataclasses import dataclass
+from typing import Optional
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from vags_jax import cli
+from vags_jax.config import Camera
+
+PROG = "predict"
+# Workspace fields a frame may move (ws.json); size and heightmap_px fix the grid the networks learned.
+FIXED_WORKSPACE = ("size", "heightmap_px")
+CLOSE_TOLERANCE = 0.05  # m: a close frame further than this from the suggested viewpoint is reported
+GGCNN_SCALE_TOLERANCE = 0.1  # relative focal-length difference GG-CNN's close image may have
+
+
+@dataclass
+class Frame:
+    """One RGB-D frame: rgb (h, w, 3) uint8 registered to depth (h, w) metres along the optical
+    axis (0 or NaN = missing); pose (4, 4) camera-to-world (OpenCV axes, metres); camera: its
+    intrinsics (``Camera`` with width = w, height = h)."""
+
+    rgb: np.ndarray
+    depth: np.ndarray
+    pose: np.ndarray
+    camera: Camera
+
+
+def _json_float(x) -> Optional[float]:
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+
+
+class FramePolicy:
+    """A trained run's VAGS policy for single frames.
+
+    ``FramePolicy(run_dir)`` reads the run once: its config (with ``overrides``, e.g.
+    ``{"vags.local_planner": "ggcnn"}`` or a workspace moved by ``frames.read_workspace``), the
+    latest stage-3 (else stage-2) networks, the gate's threshold and calibration, and GG-CNN.
+    ``threshold`` overrides the gate's threshold; ``no_viewpoint`` always grasps directly with
+    GDNet (the run may then hold stage 1 alone).  ``decide(frame)`` -> a JSON-ready dict (see
+    ``python -m vags_jax.predict --help``); ``decide(frame, close)`` with the frame taken at the
+    viewpoint it asked for -> the close-view grasp.  Raises ValueError (one line, what to fix)
+    for a run without the needed networks or a bad frame; warns ``heightmap.FrameWarning`` for
+    a frame unlikely to be useful.
+    """
+
+    def __init__(self, run_dir: str, overrides: Optional[dict] = None, threshold: Optional[float] = None,
+                 no_viewpoint: bool = False, step: Optional[int] = None):
+        from vags_jax import checkpoint, pipeline
+        from vags_jax import config as C
+
+        if not os.path.isdir(run_dir):
+            raise ValueError(f"run directory {run_dir!r} does not exist" if not os.path.exists(run_dir) else
+                             f"--run {run_dir!r} is a file; give the run directory train.py wrote")
+        if threshold is not None and no_viewpoint:
+            raise ValueError("--no-viewpoint fixes the threshold at -inf: drop --threshold")
+        if threshold is not None and not math.isfinite(threshold):
+            raise ValueError(f"--threshold must be a finite number, got {threshold}")
+        run_cfg = checkpoint.load_config(run_dir)
+        overrides = dict(overrides or {})
+        bad = [k for k in overrides if k.startswith("net.")]
+        if bad:
+            raise ValueError(f"{bad[0]}: the trained networks fix net.*; drop it")
+        cfg = C.replace(run_cfg, **overrides)
+        for f in FIXED_WORKSPACE:
+            if getattr(cfg.workspace, f) != getattr(run_cfg.workspace, f):
+                raise ValueError(f"workspace.{f} = {getattr(cfg.workspace, f)} differs from the run's "
+                                 f"{getattr(run_cfg.workspace, f)}: its networks learned on that grid "
+                                 f"({1000 * run_cfg.workspace.pixel_size:g} mm cells); move the square with "
+                                 f"center and table_z only")
+        self.run_dir, self.cfg = run_dir, cfg
+        has_vags = any(checkpoint.checkpoint_steps(pipeline.networks_dir(run_dir, n))
+                       for n in ("stage2", "stage3") if os.path.isdir(pipeline.networks_dir(run_dir, n)))
+        self.gdnet_only = no_viewpoint and not has_vags
+        if self.gdnet_only:
+            from vags_jax.evaluate import load_gdnet
+
+            _, variables, s = load_gdnet(run_dir, step)
+            self.params, self.source = {"gdnet": variables, "threshold": np.float32(-np.inf)}, f"stage1 step {s}"
+        else:
+            from vags_jax.evaluate import vags_params
+
+            try:
+                networks = pipeline.load_vags(run_dir, cfg, step)
+            except checkpoint.CheckpointError as e:
+                if has_vags:
+                    raise
+                raise ValueError(f"{e}; or pass --no-viewpoint to grasp with its GDNet alone") from None
+            self.params = vags_params(networks, cfg, -math.inf if no_viewpoint else threshold)
+            self.source = networks.source
+        self.ggcnn_camera = None
+        if cfg.vags.local_planner == "ggcnn" and not self.gdnet_only:
+            from vags_jax.ggcnn_stage import ggcnn_dir
+
+            self.ggcnn_camera = checkpoint.load_config(ggcnn_dir(run_dir)).camera
+
+    # ------------------------------------------------------------------ checks (numpy, nothing compiled)
+
+    def check(self, frame: Frame, what: str = "frame"):
+        """``heightmap.check_frame`` on a frame -> (depth, rgb, pose) as the programs take them;
+        ValueError naming ``what``."""
+        from vags_jax import heightmap
+
+        try:
+            return heightmap.check_frame(frame.depth, frame.rgb, frame.pose, frame.camera, self.cfg.workspace)
+        except ValueError as e:
+            raise ValueError(f"{what}: {e}") from None
+
+    def check_close(self, close: Frame) -> None:
+        """The close frame suits the close-view planner ("ggcnn": the image scale GG-CNN learned)."""
+        if self.ggcnn_camera is None:
+            return
+        g, c = self.ggcnn_camera, close.camera
+        if (c.width, c.height) != (g.width, g.height) or any(
+                abs(a / b - 1) > GGCNN_SCALE_TOLERANCE for a, b in ((c.fx, g.fx), (c.fy, g.fy))):
+            raise ValueError(f"close frame: GG-CNN (vags.local_planner=ggcnn) learned on {g.width} x {g.height} images "
+                             f"with fx, fy = {g.fx:g}, {g.fy:g}, and this one is {c.width} x {c.height} with "
+                             f"{c.fx:g}, {c.fy:g}: resize or crop it to that scale, or use --set "
+                             f"vags.local_planner=gdnet, which takes any camera")
+
+    # ------------------------------------------------------------------ deciding
+
+    def decide(self, frame: Frame, close: Optional[Frame] = None) -> dict:
+        """The decision on a global frame; with ``close`` (the frame taken at the viewpoint the
+        decision asked for) the close-view grasp.  -> JSON-ready dict."""
+        depth, rgb, pose = self.check(frame, "global frame")
+        if close is not None:
+            if self.gdnet_only:
+                raise ValueError("--local: with --no-viewpoint the policy never moves the camera; drop --local")
+            self.check_close(close)
+            c_depth, c_rgb, c_pose = self.check(close, "close frame (--local)")
+        g = _global_program(self.params, depth, rgb, pose, cfg=self.cfg, cam=frame.camera, gdnet_only=self.gdnet_only)
+        g = {k: (v if k in ("color", "height") else np.asarray(v)) for k, v in g.items()}
+        out = {"decision": "grasp" if bool(g["direct"][0]) else "move", "run": self.run_dir, "networks": self.source}
+        out["gate"], out["reason"] = self._gate(g)
+        direct = self._heightmap_grasp(g["grasp"][0], g["position"][0], g["yaw"][0], g["q_max"][0], "global")
+        if out["decision"] == "grasp":
+            out["grasp"] = direct
+            if close is not None:
+                out["note"] = "the gate chose a direct grasp from the global view; the --local frame was not used"
+            return out
+        view_pose = g["view_pose"][0]
+        looks_at = view_pose[:3, 3] - np.array([0.0, 0.0, self.cfg.camera.viewpoint_height], np.float32)
+        out["viewpoint"] = {"camera_to_world": view_pose.tolist(), "position": view_pose[:3, 3].tolist(),
+                            "looks_at": looks_at.tolist(), "pixel": g["view"][0].tolist(),
+                            "value": _json_float(g["p_view"][0])}
+        out["direct_grasp"] = direct
+        if close is None:
+            return out
+        out["decision"] = "grasp"
+        out["close_frame"] = {"distance_to_viewpoint_m": float(np.linalg.norm(c_pose[:3, 3] - view_pose[:3, 3]))}
+        if self.cfg.vags.local_planner == "gdnet":
+            c = _close_gdnet_program(self.params, g["color"], g["height"], c_depth, c_rgb, c_pose, cfg=self.cfg,
+                                     cam=close.camera)
+            c = {k: np.asarray(v) for k, v in c.items()}
+            out["grasp"] = self._heightmap_grasp(c["grasp"][0], c["position"][0], c["yaw"][0], c["q"][0], "close")
+            out["close_frame"]["cells_seen"] = int(c["seen"])
+        else:
+            c = {k: np.asarray(v) for k, v in _close_ggcnn_program(self.params, c_depth, c_pose, cfg=self.cfg,
+                                                                    cam=close.camera).items()}
+            out["grasp"] = self._ggcnn_grasp(c)
+        return out
+
+    def _gate(self, g: dict):
+        v = self.cfg.vags
+        thr = float(np.asarray(self.params["threshold"]))
+        score, direct = float(g["score"][0]), bool(g["direct"][0])
+        verdict = "grasp directly" if direct else "move the camera to the viewpoint"
+        rel = ">" if direct else "<="
+        if self.gdnet_only or thr == -math.inf:
+            gate = {"kind": "none", "q_max": _json_float(g["q_max"][0]), "threshold": None}
+            return gate, "--no-viewpoint (threshold -inf): always grasp directly with GDNet"
+        gate = {"kind": v.gate, "score": score, "threshold": _json_float(thr), "direct": direct,
+                "q_max": _json_float(g["q_max"][0])}
+        if v.gate == "q":
+            return gate, f"GDNet's largest Q {score:.4f} {rel} threshold {thr:.4f}: {verdict}"
+        cal = np.zeros(2) if self.params.get("calibration") is None else np.asarray(self.params["calibration"])
+        p_d, p_v = float(g["p_direct"][0]), float(g["p_view"][0])
+        gate.update(p_direct=p_d, p_view=p_v, calibration=[float(cal[0]), float(cal[1])], move_cost=v.move_cost)
+        return gate, (f"success estimate of the direct grasp {p_d:.3f} (bias {cal[0]:+.3f}) against a grasp after "
+                      f"a move {p_v:.3f} (bias {cal[1]:+.3f}): score {score:+.4f} {rel} threshold {thr:+.4f}: {verdict}")
+
+    def _heightmap_grasp(self, action, position, yaw, q, view: str) -> dict:
+        return {"view": view, "planner": "gdnet", "position": [float(x) for x in position],
+                "yaw": float(yaw), "gripper_width": self.cfg.grasp.finger_stroke, "q": _json_float(q),
+                "pixel": [int(action[1]), int(action[2])], "rotation": int(action[0])}
+
+    def _ggcnn_grasp(self, c: dict) -> dict:
+        from vags_jax import camera
+
+        ws, g = self.cfg.workspace, self.cfg.grasp
+        position = c["position"][0]
+        pixel = np.asarray(camera.world_xy_to_pixel(position[:2], ws))
+        return {"view": "close", "planner": "ggcnn", "position": [float(x) for x in position],
+                "yaw": float(c["yaw"][0]), "gripper_width": g.finger_stroke,
+                "predicted_width": float(c["width"][0]), "quality": _json_float(c["quality"][0]),
+                "pixel": [int(pixel[0]), int(pixel[1])],
+                "rotation": int(round(float(c["yaw"][0]) / g.rotation_step)) % g.n_rotations,
+                "image_pixel": [int(v) for v in c["image_pixel"][0]]}
+
+
+# ----------------------------------------------------------------------------- compiled programs
+# Module-level and jitted with the configs static: compiled once per (run config, camera) and
+# shared by every FramePolicy of that config; params (weights, threshold) are arguments.
+
+
+@functools.lru_cache(maxsize=None)
+def _nets(cfg):
+    from vags_jax.decision import VagsNets
+
+    return VagsNets(cfg)
+
+
+@functools.partial(jax.jit, static_argnames=("cfg", "cam", "gdnet_only"))
+def _global_program(params, depth, rgb, pose, *, cfg, cam, gdnet_only):
+    """One global frame (depth (h, w), rgb (h, w, 3), pose (4, 4)) -> the decision's arrays
+    (leading axis 1): the heightmaps, GDNet's argmax, the gate's figures, the grasp's pose,
+    the viewpoint's pose."""
+    from vags_jax import camera, decision, heightmap
+    from vags_jax.env import grasp_pose
+
+    nets = _nets(cfg)
+    color, height = heightmap.heightmaps(depth[None], rgb[None], pose[None], cam, cfg.workspace)
+    out = {"color": color, "height": height}
+    if gdnet_only:
+        grasp, q_max = decision.greedy(nets.gdnet_q(params["gdnet"])(color, height))
+        out.update(grasp=grasp, q_max=q_max, score=q_max, direct=jnp.ones((1,), bool))
+    else:
+        q_grasp, q_view, q_success = nets.q_maps(params, color, height)
+        d = decision.decide(q_grasp, q_view, params["threshold"], q_success, cfg.vags.gate, params.get("calibration"))
+        _, p_view = decision.greedy(q_view)
+        out.update(grasp=d.grasp, q_max=d.q_max, score=d.score, direct=d.direct, view=d.view, p_view=p_view,
+                   view_pose=camera.viewpoint_pose(d.view, height, cfg.workspace, cfg.camera))
+        if q_success is not None:
+            out["p_direct"] = decision.value_at(q_success, d.grasp)
+    out["position"], out["yaw"] = grasp_pose(cfg, height, out["grasp"][:, 1:], out["grasp"][:, 0])
+    return out
+
+
+@functools.partial(jax.jit, static_argnames=("cfg", "cam"))
+def _close_gdnet_program(params, color, height, depth, rgb, pose, *, cfg, cam):
+    """The "gdnet" close-view planner on one close frame, fused into the global maps (1, H, W)."""
+    from vags_jax import decision
+    from vags_jax.env import grasp_pose
+
+    action, q, _, fused, seen = decision.fused_grasp(color, height, depth[None], rgb[None], pose[None], cam,
+                                                     cfg.workspace, _nets(cfg).gdnet_q(params["gdnet"]))
+    position, yaw = grasp_pose(cfg, fused, action[:, 1:], action[:, 0])
+    return {"grasp": action, "q": q, "position": position, "yaw": yaw, "seen": seen.sum()}
+
+
+@functools.partial(jax.jit, static_argnames=("cfg", "cam"))
+def _close_ggcnn_program(params, depth, pose, *, cfg, cam):
+    """The "ggcnn" close-view planner: GG-CNN's best grasp in one close depth image."""
+    from vags_jax.ggcnn_grasp import predict_grasp
+
+    g, img = predict_grasp(_nets(cfg).ggcnn, params["ggcnn"], depth[None], pose[None], cam, cfg.ggcnn,
+                           cfg.grasp.depth_below_surface)
+    return {"position": g.position, "yaw": g.yaw, "width": g.width, "quality": img.quality, "image_pixel": img.pixel}
+
+
+# ----------------------------------------------------------------------------- pictures
+
+
+def draw_decision(frame: Frame, result: dict, grasp_rgb=(255, 40, 40), view_rgb=(40, 220, 255)) -> np.ndarray:
+    """The frame's colour image with the decision drawn on it -> (h, w, 3) uint8: a grasp as a
+    line along its closing axis, as long as the gripper's opening, through the grasp point; a
+    viewpoint as a cross where the camera would look down."""
+    from vags_jax import camera
+    from vags_jax.record import _Panel
+
+    panel = _Panel(np.asarray(frame.rgb, np.uint8), frame.rgb.shape[:2])
+    if "grasp" in result:
+        g = result["grasp"]
+        centre = np.asarray(g["position"])
+        axis = np.array([math.cos(g["yaw"]), math.sin(g["yaw"]), 0.0]) * g["gripper_width"] / 2
+        points = [centre - axis, centre + axis]
+        colour = grasp_rgb
+    else:
+        points = [result["viewpoint"]["looks_at"]]
+        colour = view_rgb
+    uv, z = camera.project(np.asarray(points, np.float32)[None], np.asarray(frame.pose, np.float32), frame.camera)
+    uv, z = np.asarray(uv)[0], np.asarray(z)[0]
+    if np.all(z > 0):
+        if len(points) == 2:
+            panel._segment(uv[0, 1], uv[0, 0], uv[1, 1], uv[1, 0], colour)
+        else:
+            panel.cross(uv[0, 1], uv[0, 0], colour)
+    return panel.img
+
+
+# ----------------------------------------------------------------------------- command line
+
+
+def _parser():
+    p = cli.ArgumentParser(prog=PROG, description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--run", required=True, help="run directory written by train.py (stage 2 or 3 networks)")
+    p.add_argument("--rgb", required=True, help="colour image: 8-bit RGB .png, or (h, w, 3) uint8 .npy")
+    p.add_argument("--depth", required=True, help="depth image: 16-bit .png in millimetres, or (h, w) float .npy in metres")
+    p.add_argument("--intrinsics", required=True, metavar="K.json", help='{"fx", "fy", "cx", "cy", "width", "height"}')
+    p.add_argument("--pose", required=True, metavar="POSE.json", help="4 x 4 camera-to-world transform (metres)")
+    p.add_argument("--workspace", default=None, metavar="WS.json",
+                   help='moves the workspace square: {"center": [x, y], "table_z": z} (default: the run\'s)')
+    p.add_argument("--local", nargs=3, default=None, metavar=("RGB", "DEPTH", "POSE.json"),
+                   help="the frame taken at the viewpoint a previous call asked for: the close-view grasp")
+    p.add_argument("--out-image", default=None, metavar="PATH.png", help="the decision drawn on the frame")
+    p.add_argument("--threshold", type=float, default=None, help="the gate's threshold (default: the run's)")
+    p.add_argument("--no-viewpoint", action="store_true", help="always grasp directly with GDNet (threshold -inf)")
+    p.add_argument("--step", type=cli.int_in(0), default=None, help="networks checkpoint step (default: latest)")
+    p.add_argument("--set", nargs="*", default=[], metavar="SECTION.FIELD=VALUE",
+                   help="config overrides, e.g. vags.local_planner=ggcnn vags.move_cost=0.1 (not net.* or workspace.*)")
+    return p
+
+
+def read_frame(rgb: str, depth: str, intrinsics: str, pose: str) -> Frame:
+    """A frame's four files -> Frame; ValueError (one line) naming the file and the fix."""
+    from vags_jax import frames
+
+    cam = frames.read_intrinsics(intrinsics)
+    d = frames.read_depth(depth)
+    c = frames.read_rgb(rgb)
+    p = frames.read_pose(pose)
+    frames.check_size(c, d, cam, rgb, depth, intrinsics)
+    return Frame(rgb=c, depth=d, pose=p, camera=cam)
+
+
+def main_predict(argv) -> int:
+    args = _parser().parse_args(argv)
+    from vags_jax import config as C
+    from vags_jax import frames, heightmap
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", heightmap.FrameWarning)
+            frame = read_frame(args.rgb, args.depth, args.intrinsics, args.pose)
+            close = None
+            if args.local:
+                close = read_frame(args.local[0], args.local[1], args.intrinsics, args.local[2])
+            if args.out_image:
+                cli.check_writable_file(args.out_image, "--out-image")
+            overrides = C.parse_overrides(args.set)
+            ws_keys = [k for k in overrides if k.startswith("workspace.")]
+            if ws_keys:
+                raise ValueError(f"{ws_keys[0]}: give the workspace with --workspace WS.json")
+            if args.workspace:
+                overrides.update(frames.read_workspace(args.workspace))
+            policy = FramePolicy(args.run, overrides, args.threshold, args.no_viewpoint, args.step)
+            result = policy.decide(frame, close)  # every check runs before anything is compiled
+    except (ValueError, heightmap.FrameWarning) as e:  # includes CheckpointError and config validation
+        return cli.fail(PROG, e)
+    if result.get("close_frame", {}).get("distance_to_viewpoint_m", 0.0) > CLOSE_TOLERANCE:
+        print(f"{PROG}: warning: the close frame was taken {100 * result['close_frame']['distance_to_viewpoint_m']:.1f} "
+              f"cm from the viewpoint asked for", file=sys.stderr)
+    if args.out_image:
+        from vags_jax.images import save_png
+
+        shown = close if close is not None and result["grasp"]["view"] == "close" else frame
+        save_png(args.out_image, draw_decision(shown, result))
+    print(json.dumps(result, indent=1))
+    return 0
+
+
+def _sim_parser(command: str):
+    p = cli.ArgumentParser(prog=f"{PROG} {command}", description=__doc__,
+                           formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--run", default=None, help="run directory (its config: scene, camera, workspace)")
+    p.add_argument("--config", default=None, help="preset without --run: tiny | gpu | gpu-edge | paper | default")
+    p.add_argument("--set", nargs="*", default=[], metavar="SECTION.FIELD=VALUE", help="config overrides")
+    p.add_argument("--seed", type=cli.int_in(0, 2**32 - 1), default=0, help="the scene (default 0)")
+    p.add_argument("--objects", type=cli.int_in(1), default=None,
+                   help="objects in the scene (default: scene.max_objects)")
+    if command == "write-frames":
+        p.add_argument("--out", required=True, help="directory for rgb.png, depth.png, pose.json, K.json, ws.json")
+        p.add_argument("--at", default=None, metavar="POSE.json",
+                       help="render at this pose (a pose file, or predict's output: its viewpoint) instead of the "
+                            "global pose")
+        p.add_argument("--prefix", default=None, help="file name prefix (default: none, or 'close_' with --at)")
+        p.add_argument("--depth-format", choices=("png", "npy"), default="png",
+                       help="png: 16-bit millimetres, as a sensor gives (default); npy: float32 metres")
+    else:
+        p.add_argument("--grasp", required=True, metavar="DECISION.json", help="predict's output with a grasp")
+    return p
+
+
+def _sim_config(args):
+    from vags_jax import checkpoint
+    from vags_jax import config as C
+
+    if args.run and args.config:
+        raise ValueError("--run uses the run's own config.json; drop --config")
+    if args.run and not os.path.isdir(args.run):
+        raise ValueError(f"run directory {args.run!r} does not exist")
+    base = checkpoint.load_config(args.run) if args.run else C.preset(args.config or "tiny")
+    cfg = C.replace(base, **C.parse_overrides(args.set))
+    n = cfg.scene.max_objects if args.objects is None else args.objects
+    if n > cfg.scene.max_objects:
+        raise ValueError(f"--objects {n} exceeds scene.max_objects = {cfg.scene.max_objects}")
+    return cfg, n
+
+
+def _read_grasp(path: str):
+    from vags_jax import frames
+
+    obj = frames._json(path, "--grasp")
+    g = obj.get("grasp") if isinstance(obj, dict) else None
+    if not isinstance(g, dict) or "position" not in g or "yaw" not in g:
+        what = f"decision {obj.get('decision')!r} without a grasp" if isinstance(obj, dict) else "not a predict output"
+        raise ValueError(f"--grasp {path}: {what}; run predict (with --local after a move) and give its output")
+    position = np.array([frames._number(path, "grasp.position", v) for v in g["position"]], np.float32)
+    if position.shape != (3,):
+        raise ValueError(f"--grasp {path}: grasp.position must be [x, y, z]")
+    return position, np.float32(frames._number(path, "grasp.yaw", g["yaw"]))
+
+
+def main_sim(command: str, argv) -> int:
+    args = _sim_parser(command).parse_args(argv)
+    from vags_jax import frames
+
+    try:
+        cfg, n = _sim_config(args)
+        pose = grasp = None
+        if command == "write-frames":
+            cli._check_parent_writable(os.path.join(args.out, "x"), "--out")
+            if os.path.exists(args.out) and not os.path.isdir(args.out):
+                raise ValueError(f"--out {args.out!r} is a file; give a directory")
+            if args.at:
+                pose = frames.pose_from_file(args.at)
+        else:
+            grasp = _read_grasp(args.grasp)
+    except ValueError as e:
+        return cli.fail(f"{PROG} {command}", e)
+    import jax.numpy as jnp
+
+    from vags_jax import camera
+    from vags_jax.env import VagsEnv
+
+    env = VagsEnv(cfg)
+    state = frames.scene_state(env, args.seed, n)
+    if command == "execute":
+        _, result = env.grasp_at(state, jnp.asarray(grasp[0])[None], jnp.asarray(grasp[1])[None])
+        print(json.dumps({"success": bool(result.success[0]), "object": int(result.object[0]),
+                          "objects_before": n, "seed": args.seed}, indent=1))
+        return 0
+    at = pose if pose is not None else np.asarray(camera.global_pose(cfg.camera))
+    rgb, depth, _ = frames.render_frame(env, state, at, frames.simulator_frame_key(args.seed, int(pose is not None)))
+    prefix = args.prefix if args.prefix is not None else ("close_" if pose is not None else "")
+    paths = frames.write_frame(args.out, rgb, depth, at, cfg.camera, cfg.workspace, prefix, args.depth_format)
+    print(json.dumps(paths, indent=1))
+    return 0
+
+
+def main(argv=None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if argv and argv[0] in ("write-frames", "execute"):
+        return main_sim(argv[0], argv[1:])
+    return main_predict(argv)
+
+
+__all__ = ["Frame", "FramePolicy", "read_frame", "draw_decision", "main"]
+
+if __name__ == "__main__":
+    sys.exit(main())
