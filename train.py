@@ -239,6 +239,7 @@ def prepare(args) -> SimpleNamespace:
         from vags_jax import scene
 
         scene.build_spec(cfg)  # the scene's own checks (shape names), in milliseconds
+        check_net_init(cfg)
         return SimpleNamespace(cfg=cfg, step=0, arrays=None, done=None, raised_from=None)
 
     from vags_jax import checkpoint
@@ -274,6 +275,17 @@ def prepare(args) -> SimpleNamespace:
     if raised is not None:
         check_not_built_on(args.out, "stage1")
     return SimpleNamespace(cfg=cfg, step=step, arrays=arrays, done=None, raised_from=raised)
+
+
+def check_net_init(cfg) -> None:
+    """net.init (ImageNet DenseNet-121 weights) read and checked against the trunks before
+    anything is compiled; ValueError saying what to fix."""
+    if cfg.net.init is None:
+        return
+    from vags_jax.networks import check_init, make_qnet
+
+    H = cfg.workspace.heightmap_px
+    check_init(cfg.net, make_qnet(cfg.net, "gdnet"), H, H)
 
 
 def read_stage1_checkpoint(out: str, cfg, step: int) -> dict:
@@ -567,6 +579,7 @@ def prepare_pipeline(args, only):
         check_fresh_out(args.out)
         cfg = C.replace(C.preset(args.config or "tiny"), **overrides)
         check_ggcnn_config(cfg)
+        check_net_init(cfg)
         if os.path.isdir(args.out):  # a GG-CNN already trained into --out with this config is reused
             why = pipeline.ggcnn_reusable(args.out, cfg)
             if why:
@@ -616,6 +629,8 @@ def prepare_pipeline(args, only):
                 raise ValueError(f"{only} starts from the end of {pipeline.DESCRIPTION[name]}, and {args.out} "
                                  f"{state} there: run python train.py --out {args.out} --resume (every stage "
                                  f"in order) or --stage {name} first")
+    if not (pipeline.progress(args.out, "stage1") and pipeline.progress(args.out, "stage2")):
+        check_net_init(cfg)  # stage 1's GDNet or stage 2's VANet still starts from net.init
     data_dir = check_data_dir(args.data_dir) if only is None and pipeline.progress(args.out, "ggcnn") == 0 else None
     if only is None and pipeline.progress(args.out, "ggcnn") == 0:
         check_ggcnn_config(cfg)
