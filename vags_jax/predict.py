@@ -34,6 +34,7 @@ import os
 import sys
 import warnings
 from dataclasses import dataclass
+from types import SimpleNamespace
 from typing import Optional
 
 import jax
@@ -69,6 +70,41 @@ def _json_float(x) -> Optional[float]:
 
 
 
+def run_config(run_dir: str, overrides: Optional[dict] = None):
+    """A run's config with ``overrides`` (dotted keys; not net.*, nor the workspace's size and
+    grid: the networks learned on them) -> Config.  ValueError (one line) with what to fix."""
+    from vags_jax import checkpoint
+    from vags_jax import config as C
+
+    if not os.path.isdir(run_dir):
+        raise ValueError(f"run directory {run_dir!r} does not exist" if not os.path.exists(run_dir) else
+                         f"--run {run_dir!r} is a file; give the run directory train.py wrote")
+    run_cfg = checkpoint.load_config(run_dir)
+    overrides = dict(overrides or {})
+    bad = [k for k in overrides if k.startswith("net.")]
+    if bad:
+        raise ValueError(f"{bad[0]}: the trained networks fix net.*; drop it")
+    cfg = C.replace(run_cfg, **overrides)
+    for f in FIXED_WORKSPACE:
+        if getattr(cfg.workspace, f) != getattr(run_cfg.workspace, f):
+            raise ValueError(f"workspace.{f} = {getattr(cfg.workspace, f)} differs from the run's "
+                             f"{getattr(run_cfg.workspace, f)}: its networks learned on that grid "
+                             f"({1000 * run_cfg.workspace.pixel_size:g} mm cells); move the square with "
+                             f"center and table_z only")
+    return cfg
+
+
+def check_frame(frame: Frame, ws, what: str = "frame"):
+    """``heightmap.check_frame`` on a frame for the workspace ``ws`` -> (depth, rgb, pose) as
+    the programs take them; ValueError naming ``what``; ``FrameWarning`` as it warns."""
+    from vags_jax import heightmap
+
+    try:
+        return heightmap.check_frame(frame.depth, frame.rgb, frame.pose, frame.camera, ws)
+    except (ValueError, heightmap.FrameWarning) as e:  # a FrameWarning raises where warnings are errors
+        raise ValueError(f"{what}: {e}") from None
+
+
 class FramePolicy:
     """A trained run's VAGS policy for single frames.
 
@@ -86,64 +122,48 @@ class FramePolicy:
     def __init__(self, run_dir: str, overrides: Optional[dict] = None, threshold: Optional[float] = None,
                  no_viewpoint: bool = False, step: Optional[int] = None):
         from vags_jax import checkpoint, pipeline
-        from vags_jax import config as C
+        from vags_jax.evaluate import load_gdnet, vags_params
 
-        if not os.path.isdir(run_dir):
-            raise ValueError(f"run directory {run_dir!r} does not exist" if not os.path.exists(run_dir) else
-                             f"--run {run_dir!r} is a file; give the run directory train.py wrote")
         if threshold is not None and no_viewpoint:
             raise ValueError("--no-viewpoint fixes the threshold at -inf: drop --threshold")
         if threshold is not None and not math.isfinite(threshold):
             raise ValueError(f"--threshold must be a finite number, got {threshold}")
-        run_cfg = checkpoint.load_config(run_dir)
-        overrides = dict(overrides or {})
-        bad = [k for k in overrides if k.startswith("net.")]
-        if bad:
-            raise ValueError(f"{bad[0]}: the trained networks fix net.*; drop it")
-        cfg = C.replace(run_cfg, **overrides)
-        for f in FIXED_WORKSPACE:
-            if getattr(cfg.workspace, f) != getattr(run_cfg.workspace, f):
-                raise ValueError(f"workspace.{f} = {getattr(cfg.workspace, f)} differs from the run's "
-                                 f"{getattr(run_cfg.workspace, f)}: its networks learned on that grid "
-                                 f"({1000 * run_cfg.workspace.pixel_size:g} mm cells); move the square with "
-                                 f"center and table_z only")
-        self.run_dir, self.cfg = run_dir, cfg
-        has_vags = any(checkpoint.checkpoint_steps(pipeline.networks_dir(run_dir, n))
-                       for n in ("stage2", "stage3") if os.path.isdir(pipeline.networks_dir(run_dir, n)))
-        self.gdnet_only = no_viewpoint and not has_vags
+        self.run_dir = run_dir
+        self.cfg = cfg = run_config(run_dir, overrides)
+        found = [n for n in ("stage3", "stage2") if os.path.isdir(pipeline.networks_dir(run_dir, n))
+                 and checkpoint.checkpoint_steps(pipeline.networks_dir(run_dir, n))]
+        self.gdnet_only = no_viewpoint and not found
+        self.ggcnn_camera = None
         if self.gdnet_only:
-            from vags_jax.evaluate import load_gdnet
-
             _, variables, s = load_gdnet(run_dir, step)
             self.params, self.source = {"gdnet": variables, "threshold": np.float32(-np.inf)}, f"stage1 step {s}"
-        else:
-            from vags_jax.evaluate import vags_params
-
+            return
+        if not found:
             try:
-                networks = pipeline.load_vags(run_dir, cfg, step)
+                pipeline.load_vags(run_dir, cfg, step)  # raises its one line: what to train
             except checkpoint.CheckpointError as e:
-                if has_vags:
-                    raise
                 raise ValueError(f"{e}; or pass --no-viewpoint to grasp with its GDNet alone") from None
-            self.params = vags_params(networks, cfg, -math.inf if no_viewpoint else threshold)
-            self.source = networks.source
-        self.ggcnn_camera = None
-        if cfg.vags.local_planner == "ggcnn" and not self.gdnet_only:
-            from vags_jax.ggcnn_stage import ggcnn_dir
+        # The networks the config's gate and close-view planner need, from the checkpoint's
+        # metadata (vags_params' own errors), before any array is read.
+        d = pipeline.networks_dir(run_dir, found[0])
+        steps = checkpoint.checkpoint_steps(d)
+        s = steps[-1] if step is None else step
+        if s not in steps:
+            raise ValueError(f"no checkpoint {s} in {d} (available steps: {steps}); drop --step or give one of them")
+        parts = checkpoint.saved_parts(d, s)
+        from vags_jax.ggcnn_stage import ggcnn_dir
 
+        has_ggcnn = os.path.isdir(ggcnn_dir(run_dir))
+        vags_params(SimpleNamespace(success=() if "success" in parts else None, ggcnn=() if has_ggcnn else None,
+                                    q_threshold=np.float32(0.0), calibration=None, gdnet=None, vanet=None,
+                                    source=f"{found[0]} step {s}"), cfg)
+        if cfg.vags.local_planner == "ggcnn":
             self.ggcnn_camera = checkpoint.load_config(ggcnn_dir(run_dir)).camera
+        networks = pipeline.load_vags(run_dir, cfg, s)
+        self.params = vags_params(networks, cfg, -math.inf if no_viewpoint else threshold)
+        self.source = networks.source
 
     # ------------------------------------------------------------------ checks (numpy, nothing compiled)
-
-    def check(self, frame: Frame, what: str = "frame"):
-        """``heightmap.check_frame`` on a frame -> (depth, rgb, pose) as the programs take them;
-        ValueError naming ``what``."""
-        from vags_jax import heightmap
-
-        try:
-            return heightmap.check_frame(frame.depth, frame.rgb, frame.pose, frame.camera, self.cfg.workspace)
-        except ValueError as e:
-            raise ValueError(f"{what}: {e}") from None
 
     def check_close(self, close: Frame) -> None:
         """The close frame suits the close-view planner ("ggcnn": the image scale GG-CNN learned)."""
@@ -162,12 +182,12 @@ class FramePolicy:
     def decide(self, frame: Frame, close: Optional[Frame] = None) -> dict:
         """The decision on a global frame; with ``close`` (the frame taken at the viewpoint the
         decision asked for) the close-view grasp.  -> JSON-ready dict."""
-        depth, rgb, pose = self.check(frame, "global frame")
+        depth, rgb, pose = check_frame(frame, self.cfg.workspace, "global frame")
         if close is not None:
             if self.gdnet_only:
                 raise ValueError("--local: with --no-viewpoint the policy never moves the camera; drop --local")
             self.check_close(close)
-            c_depth, c_rgb, c_pose = self.check(close, "close frame (--local)")
+            c_depth, c_rgb, c_pose = check_frame(close, self.cfg.workspace, "close frame (--local)")
         g = _global_program(self.params, depth, rgb, pose, cfg=self.cfg, cam=frame.camera, gdnet_only=self.gdnet_only)
         g = {k: (v if k in ("color", "height") else np.asarray(v)) for k, v in g.items()}
         out = {"decision": "grasp" if bool(g["direct"][0]) else "move", "run": self.run_dir, "networks": self.source}
@@ -383,8 +403,13 @@ def main_predict(argv) -> int:
                 raise ValueError(f"{ws_keys[0]}: give the workspace with --workspace WS.json")
             if args.workspace:
                 overrides.update(frames.read_workspace(args.workspace))
+            # The frames first (they need the run's config alone), then the networks.
+            ws = run_config(args.run, overrides).workspace
+            check_frame(frame, ws, "global frame")
+            if close is not None:
+                check_frame(close, ws, "close frame (--local)")
             policy = FramePolicy(args.run, overrides, args.threshold, args.no_viewpoint, args.step)
-            result = policy.decide(frame, close)  # every check runs before anything is compiled
+            result = policy.decide(frame, close)
     except (ValueError, heightmap.FrameWarning) as e:  # includes CheckpointError and config validation
         return cli.fail(PROG, e)
     if result.get("close_frame", {}).get("distance_to_viewpoint_m", 0.0) > CLOSE_TOLERANCE:
@@ -495,7 +520,7 @@ def main(argv=None) -> int:
     return main_predict(argv)
 
 
-__all__ = ["Frame", "FramePolicy", "read_frame", "draw_decision", "main"]
+__all__ = ["Frame", "FramePolicy", "run_config", "check_frame", "read_frame", "draw_decision", "main"]
 
 if __name__ == "__main__":
     sys.exit(main())
