@@ -101,6 +101,8 @@ SET_CASES = [
     ("scene.friction=high", r"scene\.friction must be a finite number, got 'high'"),
     ("grasp.descent_clearance=none", r"grasp\.descent_clearance must be null or a finite number, got 'none'"),
     ("net.trunk=3", r"net\.trunk must be a string, got 3"),
+    ("net.init=densenet121.npz", r"net\.init loads ImageNet weights into DenseNet-121 trunks; set net\.trunk=densenet121"),
+    ("net.init=3", r"net\.init must be null or a string, got 3"),
     ("workspace.center=[0.1]", r"workspace\.center must be a list of 2 items.*needs 2"),
     ("workspace.center=[0, 0, 0]", r"workspace\.center must be a list of 2 items"),
     ("workspace.center=0.1", r"workspace\.center must be a list of 2 items"),
@@ -335,6 +337,18 @@ def _snapshot(path):
             with open(p, "rb") as fh:
                 out[os.path.relpath(p, path)] = fh.read()
     return out
+
+
+@pytest.mark.parametrize("init,msg", [
+    ("{tmp}/none.pth", r"net\.init '.*none\.pth': no such file; give a torchvision DenseNet-121 state dict you have"),
+    ("{tmp}/w.txt", r"net\.init must be a torchvision DenseNet-121 state dict file \(\.pth / \.pt, or \.npz"),
+])
+def test_train_checks_net_init_first(init, msg, tmp_path, capsys):
+    argv = ["--config", "tiny", "--out", str(tmp_path / "o"), "--set", "net.trunk=densenet121",
+            "net.init=" + init.format(tmp=tmp_path)]
+    code, line = _cli(train.main, argv, capsys)
+    assert code == 2 and line.startswith("train.py: error: ") and re.search(msg, line), line
+    assert not os.path.exists(tmp_path / "o")
 
 
 def test_a_failed_start_leaves_an_out_that_the_corrected_command_accepts(tmp_path, capsys):
