@@ -355,17 +355,17 @@ def scene_state(env, seed: int, n_objects: int):
     return env.reset(jax.random.PRNGKey(seed), np.array([n_objects]))
 
 
-def render_frame(env, state, pose, key=None):
-    """World 0 of ``state`` seen by the run's camera from ``pose`` (4, 4), sensor model included
-    (``VagsEnv.camera_image``; key: its noise) -> (rgb (h, w, 3) uint8, depth (h, w) float32
-    metres, pose (4, 4) float32) as numpy."""
+def render_frame(env, sim_state, pose, key=None):
+    """World 0 of ``sim_state`` (``SimState``) seen by the env's camera from ``pose`` (4, 4),
+    sensor model included (``VagsEnv.camera_image``; key: its noise) -> (rgb (h, w, 3) uint8,
+    depth (h, w) float32 metres, pose (4, 4) float32) as numpy."""
     import jax
     import jax.numpy as jnp
 
-    pose = jnp.broadcast_to(jnp.asarray(pose, jnp.float32), (state.n_worlds, 4, 4))
+    pose = jnp.broadcast_to(jnp.asarray(pose, jnp.float32), (sim_state.n_worlds, 4, 4))
     if key is None and env.cfg.camera.noise.enabled:
         key = jax.random.PRNGKey(0)
-    image = jax.jit(env.camera_image)(state.sim, pose, key)
+    image = jax.jit(env.camera_image)(sim_state, pose, key)
     return np.asarray(image.rgb[0]), np.asarray(image.depth[0]), np.asarray(image.pose[0])
 
 

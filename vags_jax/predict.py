@@ -506,7 +506,7 @@ def main_sim(command: str, argv) -> int:
                           "objects_before": n, "seed": args.seed}, indent=1))
         return 0
     at = pose if pose is not None else np.asarray(camera.global_pose(cfg.camera))
-    rgb, depth, _ = frames.render_frame(env, state, at, frames.simulator_frame_key(args.seed, int(pose is not None)))
+    rgb, depth, _ = frames.render_frame(env, state.sim, at, frames.simulator_frame_key(args.seed, int(pose is not None)))
     prefix = args.prefix if args.prefix is not None else ("close_" if pose is not None else "")
     paths = frames.write_frame(args.out, rgb, depth, at, cfg.camera, cfg.workspace, prefix, args.depth_format)
     print(json.dumps(paths, indent=1))
