@@ -251,6 +251,44 @@ def test_move_then_close_grasp_equals_the_eval_policy(played, cfg):
     _same_outcome(played, 1)
 
 
+def test_ggcnn_close_grasp_equals_the_eval_policy(run, scene, env, cfg):
+    """vags.local_planner=ggcnn: GG-CNN's grasp in the close frame is the eval policy's."""
+    state, image = scene
+    over = {"vags.local_planner": "ggcnn"}
+    gcfg = C.replace(cfg, **over)
+    pol = predict.FramePolicy(run, over, threshold=1e6)
+    frame = _frame(image, cfg)
+    out = pol.decide(frame)
+    view = jnp.asarray(out["viewpoint"]["camera_to_world"], jnp.float32)[None]
+    after = pol.decide(frame, _frame(jax.jit(env.camera_image)(state.sim, view), cfg))
+    params = E.vags_params(pipeline.load_vags(run, gcfg), gcfg, 1e6)
+    attempt = jax.jit(lambda p, k, s: E.vags_plan(gcfg)(p, k, env, s))(params, PLAN_KEY, state)
+    g = after["grasp"]
+    assert g["planner"] == "ggcnn" and g["view"] == "close" and int(attempt.motions[0]) == 2
+    np.testing.assert_array_equal(np.float32(g["position"]), attempt.position[0])
+    assert np.float32(g["yaw"]) == attempt.yaw[0]
+    assert isinstance(g["quality"], float) and isinstance(g["predicted_width"], float)  # untrained: any value
+    assert g["gripper_width"] == cfg.grasp.finger_stroke
+    assert g["pixel"] == np.asarray(camera.world_xy_to_pixel(np.asarray(g["position"][:2]), cfg.workspace)).tolist()
+    assert all(0 <= c < cfg.ggcnn.input_size for c in g["image_pixel"])
+
+
+def test_no_viewpoint_on_a_stage1_run_is_gdnet_alone(run, policy, scene, cfg, tmp_path):
+    """--no-viewpoint: a run with stage 1 alone grasps with its GDNet, as the VAGS run's
+    direct grasp with the same GDNet."""
+    state, image = scene
+    s1 = str(tmp_path / "stage1")
+    checkpoint.save_config(s1, cfg)
+    learner = pipeline.learner_target(cfg, "gdnet").replace(**_qnet_variables(cfg, "gdnet", 0))
+    checkpoint.save(s1, 3, {"learner": learner})
+    out = predict.FramePolicy(s1, no_viewpoint=True).decide(_frame(image, cfg))
+    assert out["networks"] == "stage1 step 3" and out["decision"] == "grasp" and out["gate"]["kind"] == "none"
+    direct = _decide(policy, "grasp", _frame(image, cfg))
+    assert out["grasp"] == direct["grasp"]
+    with pytest.raises(ValueError, match="with --no-viewpoint the policy never moves the camera"):
+        predict.FramePolicy(s1, no_viewpoint=True).decide(_frame(image, cfg), _frame(image, cfg))
+
+
 def test_the_command_line_on_files(run, scene, cfg, tmp_path, capsys):
     """predict on the files write_frame makes (depth as a 16-bit millimetre PNG): one JSON
     object, the grasp on the tall block; --out-image draws it on the frame."""
