@@ -251,6 +251,15 @@ def test_move_then_close_grasp_equals_the_eval_policy(played, cfg):
     _same_outcome(played, 1)
 
 
+def test_the_q_gate_says_its_figures(run):
+    """vags.gate=q: the run's stored Q threshold (0.5) against GDNet's largest Q."""
+    pol = predict.FramePolicy(run, {"vags.gate": "q"})
+    assert float(pol.params["threshold"]) == 0.5
+    gate, reason = pol._gate({"score": np.array([0.25]), "direct": np.array([False]), "q_max": np.array([0.25])})
+    assert gate == {"kind": "q", "score": 0.25, "threshold": 0.5, "direct": False, "q_max": 0.25}
+    assert reason == "GDNet's largest Q 0.2500 <= threshold 0.5000: move the camera to the viewpoint"
+
+
 def test_ggcnn_close_grasp_equals_the_eval_policy(run, scene, env, cfg):
     """vags.local_planner=ggcnn: GG-CNN's grasp in the close frame is the eval policy's."""
     state, image = scene

@@ -370,8 +370,8 @@ def render_frame(env, sim_state, pose, key=None):
 
 
 def simulator_frame_key(seed: int, pose_index: int):
-    """The sensor-noise key of ``write-frames``' frame of scene ``seed``: 0 for the global view,
-    1 for a frame at another pose."""
+    """The sensor-noise key of the simulator commands in scene ``seed``: 0 for write-frames'
+    global view, 1 for its frame at another pose, 2 for execute's view after the grasp."""
     import jax
 
     return jax.random.fold_in(jax.random.PRNGKey(seed), 1000 + pose_index)

@@ -68,8 +68,6 @@ def _json_float(x) -> Optional[float]:
     return x if math.isfinite(x) else None
 
 
-
-
 def run_config(run_dir: str, overrides: Optional[dict] = None):
     """A run's config with ``overrides`` (dotted keys; not net.*, nor the workspace's size and
     grid: the networks learned on them) -> Config.  ValueError (one line) with what to fix."""
@@ -116,7 +114,9 @@ class FramePolicy:
     ``python -m vags_jax.predict --help``); ``decide(frame, close)`` with the frame taken at the
     viewpoint it asked for -> the close-view grasp.  Raises ValueError (one line, what to fix)
     for a run without the needed networks or a bad frame; warns ``heightmap.FrameWarning`` for
-    a frame unlikely to be useful.
+    a frame unlikely to be useful.  ``params`` (the weights and the gate's threshold) are
+    arguments of the compiled programs: another threshold in ``policy.params["threshold"]``
+    compiles nothing.
     """
 
     def __init__(self, run_dir: str, overrides: Optional[dict] = None, threshold: Optional[float] = None,
@@ -202,7 +202,7 @@ class FramePolicy:
         looks_at = view_pose[:3, 3] - np.array([0.0, 0.0, self.cfg.camera.viewpoint_height], np.float32)
         out["viewpoint"] = {"camera_to_world": view_pose.tolist(), "position": view_pose[:3, 3].tolist(),
                             "looks_at": looks_at.tolist(), "pixel": g["view"][0].tolist(),
-                            "value": _json_float(g["p_view"][0])}
+                            "vanet_q": _json_float(g["p_view"][0])}
         out["direct_grasp"] = direct
         if close is None:
             return out
@@ -501,7 +501,9 @@ def main_sim(command: str, argv) -> int:
     env = VagsEnv(cfg)
     state = frames.scene_state(env, args.seed, n)
     if command == "execute":
-        _, result = env.grasp_at(state, jnp.asarray(grasp[0])[None], jnp.asarray(grasp[1])[None])
+        # The grasp, then the simulator's next view (its sensor noise needs a key).
+        _, result = env.grasp_at(state, jnp.asarray(grasp[0])[None], jnp.asarray(grasp[1])[None],
+                                 frames.simulator_frame_key(args.seed, 2))
         print(json.dumps({"success": bool(result.success[0]), "object": int(result.object[0]),
                           "objects_before": n, "seed": args.seed}, indent=1))
         return 0
