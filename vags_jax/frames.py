@@ -25,6 +25,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import struct
 import zlib
 from typing import Optional
@@ -308,10 +309,19 @@ def workspace_dict(ws: Workspace) -> dict:
     return {"center": list(ws.center), "size": ws.size, "table_z": ws.table_z, "heightmap_px": ws.heightmap_px}
 
 
+def json_text(obj) -> str:
+    """JSON with one key a line and every list of plain values on one line (a pose's rows)."""
+    def one_line(m):
+        inner = m.group(0)[1:-1].strip()
+        return "[" + ", ".join(v.strip() for v in inner.split(",")) + "]" if inner else "[]"
+
+    value = r"\s*(?:-?[0-9][0-9.eE+-]*|null|true|false)\s*"
+    return re.sub(rf"\[(?:{value}(?:,{value})*)?\]", one_line, json.dumps(obj, indent=1))
+
+
 def _write_json(path: str, obj) -> None:
     with open(path, "w", encoding="utf-8") as f:
-        json.dump(obj, f, indent=1)
-        f.write("\n")
+        f.write(json_text(obj) + "\n")
 
 
 def write_frame(directory: str, rgb, depth, pose, cam: Camera, ws: Optional[Workspace] = None,
@@ -392,4 +402,4 @@ def pose_from_file(path: str) -> np.ndarray:
 
 __all__ = ["read_png", "read_rgb", "read_depth", "read_intrinsics", "read_pose", "read_workspace", "check_size",
            "write_frame", "intrinsics_dict", "workspace_dict", "scene_state", "render_frame", "simulator_frame_key",
-           "pose_from_file", "INTRINSICS_KEYS", "WORKSPACE_KEYS"]
+           "pose_from_file", "json_text", "INTRINSICS_KEYS", "WORKSPACE_KEYS"]

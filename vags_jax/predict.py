@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import argparse
 import functools
-import json
 import math
 import os
 import sys
@@ -420,7 +419,7 @@ def main_predict(argv) -> int:
 
         shown = close if close is not None and result["grasp"]["view"] == "close" else frame
         save_png(args.out_image, draw_decision(shown, result))
-    print(json.dumps(result, indent=1))
+    print(frames.json_text(result))
     return 0
 
 
@@ -504,14 +503,14 @@ def main_sim(command: str, argv) -> int:
         # The grasp, then the simulator's next view (its sensor noise needs a key).
         _, result = env.grasp_at(state, jnp.asarray(grasp[0])[None], jnp.asarray(grasp[1])[None],
                                  frames.simulator_frame_key(args.seed, 2))
-        print(json.dumps({"success": bool(result.success[0]), "object": int(result.object[0]),
-                          "objects_before": n, "seed": args.seed}, indent=1))
+        print(frames.json_text({"success": bool(result.success[0]), "object": int(result.object[0]),
+                                "objects_before": n, "seed": args.seed}))
         return 0
     at = pose if pose is not None else np.asarray(camera.global_pose(cfg.camera))
     rgb, depth, _ = frames.render_frame(env, state.sim, at, frames.simulator_frame_key(args.seed, int(pose is not None)))
     prefix = args.prefix if args.prefix is not None else ("close_" if pose is not None else "")
     paths = frames.write_frame(args.out, rgb, depth, at, cfg.camera, cfg.workspace, prefix, args.depth_format)
-    print(json.dumps(paths, indent=1))
+    print(frames.json_text(paths))
     return 0
 
 
