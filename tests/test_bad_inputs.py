@@ -969,7 +969,7 @@ def frame_files(tmp_path):
     return paths
 
 
-def _write(path, obj):
+def _write_text(path, obj):
     with open(path, "w") as f:
         f.write(obj if isinstance(obj, str) else json.dumps(obj))
     return str(path)
@@ -986,7 +986,7 @@ def _save(path, array):
 
 
 def _pose_file(tmp, pose):
-    return _write(tmp / "p.json", {"camera_to_world": np.asarray(pose).tolist()})
+    return _write_text(tmp / "p.json", {"camera_to_world": np.asarray(pose).tolist()})
 
 
 PREDICT_CASES = {
@@ -994,8 +994,8 @@ PREDICT_CASES = {
     "rgb-missing": (lambda t, f: {"--rgb": str(t / "none.png")}, r"colour image .*none\.png: no such file"),
     "depth-missing": (lambda t, f: {"--depth": str(t / "none.png")}, r"depth image .*none\.png: no such file"),
     "pose-missing": (lambda t, f: {"--pose": str(t / "none.json")}, r"pose .*none\.json: no such file"),
-    "rgb-jpeg": (lambda t, f: {"--rgb": _write(t / "c.jpg", "x")}, r"must be a \.png .* or \.npy .*convert"),
-    "rgb-not-png": (lambda t, f: {"--rgb": _write(t / "c.png", "not a png")}, r"c\.png is not a PNG file"),
+    "rgb-jpeg": (lambda t, f: {"--rgb": _write_text(t / "c.jpg", "x")}, r"must be a \.png .* or \.npy .*convert"),
+    "rgb-not-png": (lambda t, f: {"--rgb": _write_text(t / "c.png", "not a png")}, r"c\.png is not a PNG file"),
     # dtypes and shapes
     "depth-8-bit": (lambda t, f: {"--depth": _save(t / "d.png", np.full((24, 32), 200, np.uint8))},
                     r"d\.png is an 8-bit PNG; depth must be a 16-bit grey PNG in millimetres"),
@@ -1021,8 +1021,8 @@ PREDICT_CASES = {
     # poses
     "pose-not-rigid": (lambda t, f: {"--pose": _pose_file(t, np.diag([2.0, -2, -2, 1]) + np.eye(4)[:, 3:] @ [[0, 0, 0.5, 0]])},
                        r"global frame: cam_pose must be a rigid transform"),
-    "pose-3x4": (lambda t, f: {"--pose": _write(t / "p.json", [[1, 0, 0, 0]] * 3)}, r"p\.json: the pose must be a 4 x 4 list"),
-    "pose-not-json": (lambda t, f: {"--pose": _write(t / "p.json", "[[1, 0")}, r"pose .*p\.json is not valid JSON"),
+    "pose-3x4": (lambda t, f: {"--pose": _write_text(t / "p.json", [[1, 0, 0, 0]] * 3)}, r"p\.json: the pose must be a 4 x 4 list"),
+    "pose-not-json": (lambda t, f: {"--pose": _write_text(t / "p.json", "[[1, 0")}, r"pose .*p\.json is not valid JSON"),
     "pose-extrinsics": (lambda t, f: {"--depth": _save(t / "d.npy", _table_frame(FRAME_CAM, _look_at_pose())),
                                       "--pose": _pose_file(t, np.linalg.inv(_look_at_pose()))},
                         r"global frame: .*below the table top .*world-to-camera given instead of camera-to-world"),
@@ -1031,26 +1031,26 @@ PREDICT_CASES = {
     "pose-off-workspace": (lambda t, f: {"--pose": _pose_file(t, _down_pose(3.0, 3.0, 0.5))},
                            r"global frame: none of the 768 valid depth points falls inside the workspace"),
     # intrinsics
-    "intrinsics-other-size": (lambda t, f: {"--intrinsics": _write(t / "K.json", {
+    "intrinsics-other-size": (lambda t, f: {"--intrinsics": _write_text(t / "K.json", {
         "fx": 61.8, "fy": 61.8, "cx": 32, "cy": 24, "width": 64, "height": 48})},
         r"depth\.png is 32 x 24 pixels but .*K\.json says width 64, height 48: give the intrinsics of the stream"),
-    "intrinsics-missing-key": (lambda t, f: {"--intrinsics": _write(t / "K.json", {"fx": 30.9, "fy": 30.9, "width": 32,
+    "intrinsics-missing-key": (lambda t, f: {"--intrinsics": _write_text(t / "K.json", {"fx": 30.9, "fy": 30.9, "width": 32,
                                                                                   "height": 24})},
                                r"K\.json: intrinsics need exactly the keys fx, fy, cx, cy, width, height .*missing \['cx', 'cy'\]"),
-    "intrinsics-typo": (lambda t, f: {"--intrinsics": _write(t / "K.json", {"fx": 30.9, "fy": 30.9, "cx": 16, "cy": 12,
+    "intrinsics-typo": (lambda t, f: {"--intrinsics": _write_text(t / "K.json", {"fx": 30.9, "fy": 30.9, "cx": 16, "cy": 12,
                                                                            "width": 32, "heigth": 24})},
                         r"missing \['height'\]"),
-    "intrinsics-cx-outside": (lambda t, f: {"--intrinsics": _write(t / "K.json", {"fx": 30.9, "fy": 30.9, "cx": 320,
+    "intrinsics-cx-outside": (lambda t, f: {"--intrinsics": _write_text(t / "K.json", {"fx": 30.9, "fy": 30.9, "cx": 320,
                                                                                  "cy": 12, "width": 32, "height": 24})},
                               r"K\.json: Camera\.cx must be in \[0, 32\]"),
-    "intrinsics-width-float": (lambda t, f: {"--intrinsics": _write(t / "K.json", {"fx": 30.9, "fy": 30.9, "cx": 16,
+    "intrinsics-width-float": (lambda t, f: {"--intrinsics": _write_text(t / "K.json", {"fx": 30.9, "fy": 30.9, "cx": 16,
                                                                                   "cy": 12, "width": 32.5, "height": 24})},
                                r"K\.json: width must be a whole number, got 32\.5"),
     # the run
     "run-missing": (lambda t, f: {"--run": str(t / "none")}, r"run directory .*none' does not exist"),
-    "workspace-size": (lambda t, f: {"--workspace": _write(t / "ws.json", {"size": 0.5})},
+    "workspace-size": (lambda t, f: {"--workspace": _write_text(t / "ws.json", {"size": 0.5})},
                        r"workspace\.size = 0\.5 differs from the run's 0\.448: its networks learned on that grid"),
-    "workspace-unknown": (lambda t, f: {"--workspace": _write(t / "ws.json", {"centre": [0, 0]})},
+    "workspace-unknown": (lambda t, f: {"--workspace": _write_text(t / "ws.json", {"centre": [0, 0]})},
                           r"ws\.json: unknown workspace keys \['centre'\]"),
     "set-net": (lambda t, f: {"--set": "net.small_width=16"}, r"net\.small_width: the trained networks fix net\.\*"),
     "set-workspace": (lambda t, f: {"--set": "workspace.table_z=0.1"}, r"workspace\.table_z: give the workspace with --workspace"),
@@ -1115,7 +1115,7 @@ def test_predict_on_a_run_without_the_needed_networks(tmp_path, capsys, fake_run
     (["execute", "--config", "tiny", "--grasp", "{tmp}/none.json"], r"--grasp .*none\.json: no such file"),
 ])
 def test_predict_simulator_commands_check_their_inputs(argv, msg, tmp_path, capsys):
-    _write(tmp_path / "move.json", {"decision": "grasp"})
+    _write_text(tmp_path / "move.json", {"decision": "grasp"})
     code, line = _cli(_predict_main, [a.format(tmp=tmp_path) for a in argv], capsys)
     assert code == 2 and line.startswith("predict ") and re.search(msg, line), line
 

@@ -108,7 +108,7 @@ def _unfilter(kinds: np.ndarray, raw: np.ndarray, path: str) -> np.ndarray:
     h, w, bpp = raw.shape
     if kinds.size and kinds.max() > 4:
         raise ValueError(f"{path} is damaged (unknown row filter {int(kinds.max())})")
-    if not np.any(kinds == 3) and not np.any(kinds == 4) and not np.any(kinds == 1):
+    if np.isin(kinds, (0, 2)).all():
         out = raw.copy()  # None and Up only: a running sum down each column, row by row
         for r in np.flatnonzero(kinds == 2):
             out[r] += out[r - 1] if r > 0 else 0
