@@ -345,7 +345,9 @@ def write_frame(directory: str, rgb, depth, pose, cam: Camera, ws: Optional[Work
         save_png(paths["depth"], np.clip(np.round(np.nan_to_num(depth) * 1000.0), 0, MAX_DEPTH_MM).astype(np.uint16))
     else:
         np.save(paths["depth"], depth)
-    _write_json(paths["pose"], {"camera_to_world": np.asarray(pose, np.float64).tolist()})
+    # float32 values written as their shortest decimal (the simulator's poses are float32).
+    pose32 = np.asarray(pose, np.float32)
+    _write_json(paths["pose"], {"camera_to_world": [[float(str(v)) for v in r] for r in pose32]})
     _write_json(paths["intrinsics"], intrinsics_dict(cam))
     if ws is not None:
         paths["workspace"] = os.path.join(directory, "ws.json")

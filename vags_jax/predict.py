@@ -63,8 +63,16 @@ class Frame:
 
 
 def _json_float(x) -> Optional[float]:
-    x = float(x)
-    return x if math.isfinite(x) else None
+    """A float32 value as the shortest float that is the same float32 (0.175, not
+    0.17500001192092896); None for inf / NaN (not JSON)."""
+    x = np.float32(x)
+    return float(str(x)) if np.isfinite(x) else None
+
+
+def _json_floats(a) -> list:
+    """An array of float32 values -> nested lists of ``_json_float``."""
+    a = np.asarray(a)
+    return [_json_floats(r) for r in a] if a.ndim > 1 else [_json_float(v) for v in a]
 
 
 def run_config(run_dir: str, overrides: Optional[dict] = None):
@@ -199,14 +207,14 @@ class FramePolicy:
             return out
         view_pose = g["view_pose"][0]
         looks_at = view_pose[:3, 3] - np.array([0.0, 0.0, self.cfg.camera.viewpoint_height], np.float32)
-        out["viewpoint"] = {"camera_to_world": view_pose.tolist(), "position": view_pose[:3, 3].tolist(),
-                            "looks_at": looks_at.tolist(), "pixel": g["view"][0].tolist(),
+        out["viewpoint"] = {"camera_to_world": _json_floats(view_pose), "position": _json_floats(view_pose[:3, 3]),
+                            "looks_at": _json_floats(looks_at), "pixel": g["view"][0].tolist(),
                             "vanet_q": _json_float(g["p_view"][0])}
         out["direct_grasp"] = direct
         if close is None:
             return out
         out["decision"] = "grasp"
-        out["close_frame"] = {"distance_to_viewpoint_m": float(np.linalg.norm(c_pose[:3, 3] - view_pose[:3, 3]))}
+        out["close_frame"] = {"distance_to_viewpoint_m": _json_float(np.linalg.norm(c_pose[:3, 3] - view_pose[:3, 3]))}
         if self.cfg.vags.local_planner == "gdnet":
             c = _close_gdnet_program(self.params, g["color"], g["height"], c_depth, c_rgb, c_pose, cfg=self.cfg,
                                      cam=close.camera)
@@ -228,19 +236,20 @@ class FramePolicy:
         if self.gdnet_only or thr == -math.inf:
             gate = {"kind": "none", "q_max": _json_float(g["q_max"][0]), "threshold": None}
             return gate, "--no-viewpoint (threshold -inf): always grasp directly with GDNet"
-        gate = {"kind": v.gate, "score": score, "threshold": _json_float(thr), "direct": direct,
+        gate = {"kind": v.gate, "score": _json_float(score), "threshold": _json_float(thr), "direct": direct,
                 "q_max": _json_float(g["q_max"][0])}
         if v.gate == "q":
             return gate, f"GDNet's largest Q {score:.4f} {rel} threshold {thr:.4f}: {verdict}"
         cal = np.zeros(2) if self.params.get("calibration") is None else np.asarray(self.params["calibration"])
         p_d, p_v = float(g["p_direct"][0]), float(g["p_view"][0])
-        gate.update(p_direct=p_d, p_view=p_v, calibration=[float(cal[0]), float(cal[1])], move_cost=v.move_cost)
+        gate.update(p_direct=_json_float(p_d), p_view=_json_float(p_v), calibration=_json_floats(cal),
+                    move_cost=v.move_cost)
         return gate, (f"success estimate of the direct grasp {p_d:.3f} (bias {cal[0]:+.3f}) against a grasp after "
                       f"a move {p_v:.3f} (bias {cal[1]:+.3f}): score {score:+.4f} {rel} threshold {thr:+.4f}: {verdict}")
 
     def _heightmap_grasp(self, action, position, yaw, q, view: str) -> dict:
-        return {"view": view, "planner": "gdnet", "position": [float(x) for x in position],
-                "yaw": float(yaw), "gripper_width": self.cfg.grasp.finger_stroke, "q": _json_float(q),
+        return {"view": view, "planner": "gdnet", "position": _json_floats(position),
+                "yaw": _json_float(yaw), "gripper_width": self.cfg.grasp.finger_stroke, "q": _json_float(q),
                 "pixel": [int(action[1]), int(action[2])], "rotation": int(action[0])}
 
     def _ggcnn_grasp(self, c: dict) -> dict:
@@ -249,9 +258,9 @@ class FramePolicy:
         ws, g = self.cfg.workspace, self.cfg.grasp
         position = c["position"][0]
         pixel = np.asarray(camera.world_xy_to_pixel(position[:2], ws))
-        return {"view": "close", "planner": "ggcnn", "position": [float(x) for x in position],
-                "yaw": float(c["yaw"][0]), "gripper_width": g.finger_stroke,
-                "predicted_width": float(c["width"][0]), "quality": _json_float(c["quality"][0]),
+        return {"view": "close", "planner": "ggcnn", "position": _json_floats(position),
+                "yaw": _json_float(c["yaw"][0]), "gripper_width": g.finger_stroke,
+                "predicted_width": _json_float(c["width"][0]), "quality": _json_float(c["quality"][0]),
                 "pixel": [int(pixel[0]), int(pixel[1])],
                 "rotation": int(round(float(c["yaw"][0]) / g.rotation_step)) % g.n_rotations,
                 "image_pixel": [int(v) for v in c["image_pixel"][0]]}
