@@ -13,7 +13,6 @@ and a 2.5 cm flat one beside it, seen by the tiny preset's 128 x 96 camera witho
 """
 import json
 import math
-import os
 import struct
 import zlib
 

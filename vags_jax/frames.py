@@ -32,7 +32,7 @@ from typing import Optional
 
 import numpy as np
 
-from vags_jax.config import Camera, Config, Workspace
+from vags_jax.config import Camera, Workspace
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 # colour type -> channels (PNG spec 11.2.2)
