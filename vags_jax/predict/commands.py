@@ -174,7 +174,7 @@ def main_sim(command: str, argv) -> int:
         cfg, n = _sim_config(args)
         pose = grasp = None
         if command == "write-frames":
-            cli._check_parent_writable(os.path.join(args.out, "x"), "--out")
+            cli.check_parent_writable(os.path.join(args.out, "x"), "--out")
             if os.path.exists(args.out) and not os.path.isdir(args.out):
                 raise ValueError(f"--out {args.out!r} is a file; give a directory")
             if args.at:
