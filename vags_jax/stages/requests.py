@@ -3,8 +3,9 @@
 Each ``prepare_*`` takes the parsed command line (``args``: config, set, out, resume, stage,
 data_dir, chunk, checkpoint_every, max_minutes, quiet) and returns a plan (``SimpleNamespace``)
 for ``vags_jax.stages.driver``, or raises ``ValueError`` (``CheckpointError``) with one line
-saying what to fix: a bad ``--set`` value, an ``--out`` a run would damage, a damaged or
-foreign run directory, a ``--resume`` that would rewrite the run's config.
+saying what to fix: a bad ``--set`` value, a ``net.init`` file that is missing or does not
+fit the trunks, an ``--out`` a run would damage, a damaged or foreign run directory, a
+``--resume`` that would rewrite the run's config.
 """
 from __future__ import annotations
 
