@@ -103,6 +103,8 @@ SET_CASES = [
     ("scene.friction=high", r"scene\.friction must be a finite number, got 'high'"),
     ("grasp.descent_clearance=none", r"grasp\.descent_clearance must be null or a finite number, got 'none'"),
     ("net.trunk=3", r"net\.trunk must be a string, got 3"),
+    ("net.init=densenet121.npz", r"net\.init loads ImageNet weights into DenseNet-121 trunks; set net\.trunk=densenet121"),
+    ("net.init=3", r"net\.init must be null or a string, got 3"),
     ("workspace.center=[0.1]", r"workspace\.center must be a list of 2 items.*needs 2"),
     ("workspace.center=[0, 0, 0]", r"workspace\.center must be a list of 2 items"),
     ("workspace.center=0.1", r"workspace\.center must be a list of 2 items"),
@@ -337,6 +339,18 @@ def _snapshot(path):
             with open(p, "rb") as fh:
                 out[os.path.relpath(p, path)] = fh.read()
     return out
+
+
+@pytest.mark.parametrize("init,msg", [
+    ("{tmp}/none.pth", r"net\.init '.*none\.pth': no such file; give a torchvision DenseNet-121 state dict you have"),
+    ("{tmp}/w.txt", r"net\.init must be a torchvision DenseNet-121 state dict file \(\.pth / \.pt, or \.npz"),
+])
+def test_train_checks_net_init_first(init, msg, tmp_path, capsys):
+    argv = ["--config", "tiny", "--out", str(tmp_path / "o"), "--set", "net.trunk=densenet121",
+            "net.init=" + init.format(tmp=tmp_path)]
+    code, line = _cli(train.main, argv, capsys)
+    assert code == 2 and line.startswith("train.py: error: ") and re.search(msg, line), line
+    assert not os.path.exists(tmp_path / "o")
 
 
 def test_a_failed_start_leaves_an_out_that_the_corrected_command_accepts(tmp_path, capsys):
@@ -931,3 +945,199 @@ def test_eval_vags_flags_are_checked_first(argv, msg, tmp_path, capsys, fake_run
     run = fake_run(tmp_path)
     code, line = _cli(eval_cli.main, ["--run", run, "--policy", "vags"] + argv, capsys)
     assert code == 2 and re.search(msg, line), line
+
+
+# ----------------------------------------------------------------------------- predict (real frames from files)
+
+def _predict_main(argv):
+    from vags_jax import predict
+
+    return predict.main(argv)
+
+
+@pytest.fixture(scope="module")
+def vags_run(tmp_path_factory):
+    """A run with stage 3's networks (zeros: these tests stop before any network runs) and no
+    GG-CNN, for the tiny config."""
+    from vags_jax.stages import rundir
+
+    cfg = C.tiny()
+    run = str(tmp_path_factory.mktemp("predict") / "run")
+    checkpoint.save_config(run, cfg)
+    nets = {k: rundir.learner_target(cfg, "gdnet" if k != "vanet" else "vanet") for k in ("gdnet", "vanet", "success")}
+    checkpoint.save(rundir.networks_dir(run, "stage3"), 2, {
+        **{k: {"params": v.params, "batch_stats": v.batch_stats} for k, v in nets.items()},
+        "threshold": np.float32(0.5), "calibration": np.zeros(2, np.float32)})
+    return run
+
+
+@pytest.fixture
+def frame_files(tmp_path):
+    """A valid frame (the table seen from 0.5 m straight above) as files -> {name: path}."""
+    from vags_jax.predict import frames
+
+    pose = _down_pose(0.0, 0.0, 0.5)
+    depth = _table_frame(FRAME_CAM, pose)
+    rgb = np.full(depth.shape + (3,), 128, np.uint8)
+    paths = frames.write_frame(str(tmp_path / "frame"), rgb, depth, pose, FRAME_CAM, C.tiny().workspace)
+    return paths
+
+
+def _write_text(path, obj):
+    with open(path, "w") as f:
+        f.write(obj if isinstance(obj, str) else json.dumps(obj))
+    return str(path)
+
+
+def _save(path, array):
+    from vags_jax.benchmark.images import save_png
+
+    if str(path).endswith(".npy"):
+        np.save(path, array)
+    else:
+        save_png(str(path), array)
+    return str(path)
+
+
+def _pose_file(tmp, pose):
+    return _write_text(tmp / "p.json", {"camera_to_world": np.asarray(pose).tolist()})
+
+
+PREDICT_CASES = {
+    # files
+    "rgb-missing": (lambda t, f: {"--rgb": str(t / "none.png")}, r"colour image .*none\.png: no such file"),
+    "depth-missing": (lambda t, f: {"--depth": str(t / "none.png")}, r"depth image .*none\.png: no such file"),
+    "pose-missing": (lambda t, f: {"--pose": str(t / "none.json")}, r"pose .*none\.json: no such file"),
+    "rgb-jpeg": (lambda t, f: {"--rgb": _write_text(t / "c.jpg", "x")}, r"must be a \.png .* or \.npy .*convert"),
+    "rgb-not-png": (lambda t, f: {"--rgb": _write_text(t / "c.png", "not a png")}, r"c\.png is not a PNG file"),
+    # dtypes and shapes
+    "depth-8-bit": (lambda t, f: {"--depth": _save(t / "d.png", np.full((24, 32), 200, np.uint8))},
+                    r"d\.png is an 8-bit PNG; depth must be a 16-bit grey PNG in millimetres"),
+    "depth-colour": (lambda t, f: {"--depth": _save(t / "d.png", np.zeros((24, 32, 3), np.uint8))},
+                     r"d\.png is a colour image .*16-bit grey PNG in millimetres"),
+    "depth-npy-uint16": (lambda t, f: {"--depth": _save(t / "d.npy", np.full((24, 32), 500, np.uint16))},
+                         r"d\.npy holds uint16 values; depth in a \.npy file must be float metres"),
+    "depth-npy-mm": (lambda t, f: {"--depth": _save(t / "d.npy", np.full((24, 32), 500.0, np.float32))},
+                     r"global frame: depth values reach 500.*millimetres; divide by 1000"),
+    "depth-npy-3d": (lambda t, f: {"--depth": _save(t / "d.npy", np.ones((24, 32, 3), np.float32))},
+                     r"d\.npy has shape \(24, 32, 3\); the depth image must be \(height, width\)"),
+    "depth-as-rgb": (lambda t, f: {"--rgb": f["depth"]}, r"is a 16-bit PNG \(is it the depth image\?\)"),
+    "rgb-grey": (lambda t, f: {"--rgb": _save(t / "c.png", np.zeros((24, 32), np.uint8))}, r"c\.png is a grey image"),
+    "rgb-npy-float": (lambda t, f: {"--rgb": _save(t / "c.npy", np.zeros((24, 32, 3), np.float32))},
+                      r"c\.npy holds float32 values; the colour image must be uint8"),
+    "rgb-other-size": (lambda t, f: {"--rgb": _save(t / "c.png", np.zeros((48, 64, 3), np.uint8))},
+                       r"c\.png is 64 x 48 pixels but the depth image .* are 32 x 24: register the colour image"),
+    # depth without data
+    "depth-all-zero": (lambda t, f: {"--depth": _save(t / "d.png", np.zeros((24, 32), np.uint16))},
+                       r"d\.png holds no valid depth \(every pixel is 0 or NaN\); check the depth stream"),
+    "depth-all-nan": (lambda t, f: {"--depth": _save(t / "d.npy", np.full((24, 32), np.nan, np.float32))},
+                      r"d\.npy holds no valid depth"),
+    # poses
+    "pose-not-rigid": (lambda t, f: {"--pose": _pose_file(t, np.diag([2.0, -2, -2, 1]) + np.eye(4)[:, 3:] @ [[0, 0, 0.5, 0]])},
+                       r"global frame: cam_pose must be a rigid transform"),
+    "pose-3x4": (lambda t, f: {"--pose": _write_text(t / "p.json", [[1, 0, 0, 0]] * 3)}, r"p\.json: the pose must be a 4 x 4 list"),
+    "pose-not-json": (lambda t, f: {"--pose": _write_text(t / "p.json", "[[1, 0")}, r"pose .*p\.json is not valid JSON"),
+    "pose-extrinsics": (lambda t, f: {"--depth": _save(t / "d.npy", _table_frame(FRAME_CAM, _look_at_pose())),
+                                      "--pose": _pose_file(t, np.linalg.inv(_look_at_pose()))},
+                        r"global frame: .*below the table top .*world-to-camera given instead of camera-to-world"),
+    "pose-millimetres": (lambda t, f: {"--pose": _pose_file(t, _moved(_down_pose(0, 0, 0.5), [0, 0, 500.0]))},
+                         r"global frame: cam_pose puts the camera 500 m .*millimetres"),
+    "pose-off-workspace": (lambda t, f: {"--pose": _pose_file(t, _down_pose(3.0, 3.0, 0.5))},
+                           r"global frame: none of the 768 valid depth points falls inside the workspace"),
+    # intrinsics
+    "intrinsics-other-size": (lambda t, f: {"--intrinsics": _write_text(t / "K.json", {
+        "fx": 61.8, "fy": 61.8, "cx": 32, "cy": 24, "width": 64, "height": 48})},
+        r"depth\.png is 32 x 24 pixels but .*K\.json says width 64, height 48: give the intrinsics of the stream"),
+    "intrinsics-missing-key": (lambda t, f: {"--intrinsics": _write_text(t / "K.json", {"fx": 30.9, "fy": 30.9, "width": 32,
+                                                                                  "height": 24})},
+                               r"K\.json: intrinsics need exactly the keys fx, fy, cx, cy, width, height .*missing \['cx', 'cy'\]"),
+    "intrinsics-typo": (lambda t, f: {"--intrinsics": _write_text(t / "K.json", {"fx": 30.9, "fy": 30.9, "cx": 16, "cy": 12,
+                                                                           "width": 32, "heigth": 24})},
+                        r"missing \['height'\]"),
+    "intrinsics-cx-outside": (lambda t, f: {"--intrinsics": _write_text(t / "K.json", {"fx": 30.9, "fy": 30.9, "cx": 320,
+                                                                                 "cy": 12, "width": 32, "height": 24})},
+                              r"K\.json: Camera\.cx must be in \[0, 32\]"),
+    "intrinsics-width-float": (lambda t, f: {"--intrinsics": _write_text(t / "K.json", {"fx": 30.9, "fy": 30.9, "cx": 16,
+                                                                                  "cy": 12, "width": 32.5, "height": 24})},
+                               r"K\.json: width must be a whole number, got 32\.5"),
+    # the run
+    "run-missing": (lambda t, f: {"--run": str(t / "none")}, r"run directory .*none' does not exist"),
+    "workspace-size": (lambda t, f: {"--workspace": _write_text(t / "ws.json", {"size": 0.5})},
+                       r"workspace\.size = 0\.5 differs from the run's 0\.448: its networks learned on that grid"),
+    "workspace-unknown": (lambda t, f: {"--workspace": _write_text(t / "ws.json", {"centre": [0, 0]})},
+                          r"ws\.json: unknown workspace keys \['centre'\]"),
+    "set-net": (lambda t, f: {"--set": "net.small_width=16"}, r"net\.small_width: the trained networks fix net\.\*"),
+    "set-workspace": (lambda t, f: {"--set": "workspace.table_z=0.1"}, r"workspace\.table_z: give the workspace with --workspace"),
+    "no-ggcnn": (lambda t, f: {"--set": "vags.local_planner=ggcnn"},
+                 r"vags\.local_planner=ggcnn needs a GG-CNN in the run .*train\.py --stage ggcnn"),
+    "threshold-and-no-viewpoint": (lambda t, f: {"--threshold": "1", "--no-viewpoint": None},
+                                   r"--no-viewpoint fixes the threshold at -inf: drop --threshold"),
+    "threshold-nan": (lambda t, f: {"--threshold": "nan"}, r"--threshold must be a finite number"),
+    "threshold-text": (lambda t, f: {"--threshold": "high"}, r"argument --threshold: invalid float value: 'high'"),
+    "out-image-dir": (lambda t, f: {"--out-image": str(t)}, r"--out-image .* is a directory"),
+    # the close frame
+    "local-not-rigid": (lambda t, f: {"--local": [f["rgb"], f["depth"], _pose_file(t, np.diag([1.0, -1, -1, 1]) * 1.5)]},
+                        r"close frame \(--local\): cam_pose must be a rigid transform"),
+    "local-missing": (lambda t, f: {"--local": [f["rgb"], str(t / "none.png"), f["pose"]]},
+                      r"depth image .*none\.png: no such file"),
+}
+
+
+def _predict_argv(run, files, changes):
+    args = {"--run": run, "--rgb": files["rgb"], "--depth": files["depth"], "--intrinsics": files["intrinsics"],
+            "--pose": files["pose"]}
+    args.update(changes)
+    argv = []
+    for k, v in args.items():
+        argv += [k] + ([] if v is None else v if isinstance(v, list) else [v])
+    return argv
+
+
+@pytest.mark.parametrize("kind", sorted(PREDICT_CASES))
+def test_predict_bad_input_names_the_fix(kind, vags_run, frame_files, tmp_path, capsys):
+    change, msg = PREDICT_CASES[kind]
+    code, line = _cli(_predict_main, _predict_argv(vags_run, frame_files, change(tmp_path, frame_files)), capsys)
+    assert code == 2 and line.startswith("predict: error: ") and re.search(msg, line), line
+
+
+def test_predict_on_a_run_without_the_needed_networks(tmp_path, capsys, fake_run, frame_files, vags_run):
+    """A stage-1 run has no VANet; a run from before the success net cannot use the success gate."""
+    run = fake_run(tmp_path)
+    code, line = _cli(_predict_main, _predict_argv(run, frame_files, {}), capsys)
+    assert code == 2 and f"run {run} has no VANet yet" in line and "or pass --no-viewpoint" in line
+    old = str(tmp_path / "old")
+    shutil.copytree(vags_run, old)
+    from vags_jax.stages import rundir
+
+    d = rundir.networks_dir(old, "stage3")
+    arrays, _ = checkpoint.read(d, 2)
+    shutil.rmtree(d)
+    checkpoint.save(d, 2, {k: v for k, v in arrays.items() if k not in ("success", "calibration")})
+    code, line = _cli(_predict_main, _predict_argv(old, frame_files, {}), capsys)
+    assert code == 2 and "have no success net" in line and "--set vags.gate=q" in line
+
+
+@pytest.mark.parametrize("argv,msg", [
+    (["write-frames", "--config", "tiny", "--out", "{tmp}/f", "--objects", "9"], r"--objects 9 exceeds scene\.max_objects = 3"),
+    (["write-frames", "--config", "tiny", "--out", "{tmp}/f", "--at", "{tmp}/none.json"], r"pose .*none\.json: no such file"),
+    (["write-frames", "--run", "{tmp}/none", "--out", "{tmp}/f"], r"run directory .* does not exist"),
+    (["write-frames", "--config", "tiny", "--run", "{tmp}", "--out", "{tmp}/f"], r"--run uses the run's own config\.json"),
+    (["write-frames", "--config", "tiny"], r"the following arguments are required: --out"),
+    (["write-frames", "--config", "tiny", "--out", "{tmp}/f", "--at", "{tmp}/move.json"],
+     r"move\.json is a predict output without a viewpoint \(decision 'grasp'\)"),
+    (["execute", "--config", "tiny", "--grasp", "{tmp}/move.json"], r"--grasp .*move\.json: decision 'grasp' without a grasp"),
+    (["execute", "--config", "tiny", "--grasp", "{tmp}/none.json"], r"--grasp .*none\.json: no such file"),
+])
+def test_predict_simulator_commands_check_their_inputs(argv, msg, tmp_path, capsys):
+    _write_text(tmp_path / "move.json", {"decision": "grasp"})
+    code, line = _cli(_predict_main, [a.format(tmp=tmp_path) for a in argv], capsys)
+    assert code == 2 and line.startswith("predict ") and re.search(msg, line), line
+
+
+def test_predict_exit_code_2_one_line(frame_files, vags_run, tmp_path):
+    """As a real command: exit code 2, one stderr line, no traceback."""
+    argv = _predict_argv(vags_run, frame_files, {"--depth": str(tmp_path / "none.png")})
+    p = subprocess.run([sys.executable, "-m", "vags_jax.predict"] + argv, cwd=ROOT, capture_output=True, text=True,
+                       timeout=120, env={**os.environ, "PYTHONPATH": ROOT + os.pathsep + os.environ.get("PYTHONPATH", "")})
+    assert p.returncode == 2, p.stderr
+    assert re.search(r"^predict: error: depth image .*none\.png: no such file", _one_line(p.stderr))

@@ -431,3 +431,33 @@ def test_densenet121_matches_torch_layout(densenet_out):
     with torch.no_grad():
         ref = model.features(torch.from_numpy(np.array(x).transpose(0, 3, 1, 2))).numpy()
     np.testing.assert_allclose(ours, ref.transpose(0, 2, 3, 1), rtol=2e-3, atol=2e-3 * np.abs(ref).max())
+
+
+def test_net_init_starts_both_trunks_from_the_state_dict(densenet_gdnet_vars, tmp_path, monkeypatch):
+    """``net.init``: a fresh network (``initial_variables``) is ``init_qnet``'s with the state
+    dict in both trunks and its head as drawn; ``check_init`` reads and fits the file first,
+    by tracing (nothing compiled).  init_qnet is replaced by the zero variables here."""
+    from vags_jax.nets import check_init, initial_variables
+    from vags_jax.nets import qnet
+
+    sd = _synthetic_state_dict(densenet_gdnet_vars, seed=2)
+    path = tmp_path / "densenet121.npz"
+    np.savez(path, **sd)
+    monkeypatch.setattr(qnet, "init_qnet", lambda key, model, h, w: densenet_gdnet_vars)
+    model = make_qnet(Net(), "gdnet")
+    assert initial_variables(jax.random.PRNGKey(0), model, Net(), HM, HM) is densenet_gdnet_vars  # no init: as drawn
+    net_cfg = Net(init=str(path))
+    check_init(net_cfg, model, HM, HM)
+    loaded = initial_variables(jax.random.PRNGKey(0), model, net_cfg, HM, HM)
+    for trunk in ("colour_trunk", "depth_trunk"):
+        np.testing.assert_array_equal(loaded["params"][trunk]["conv0"]["kernel"],
+                                      sd["features.conv0.weight"].transpose(2, 3, 1, 0))
+        np.testing.assert_array_equal(loaded["batch_stats"][trunk]["norm5"]["mean"], sd["features.norm5.running_mean"])
+    np.testing.assert_array_equal(loaded["params"]["head"]["conv0"]["kernel"], 0)
+    # What train.py says before compiling, for a file that is not there or does not fit.
+    with pytest.raises(ValueError, match=r"net\.init '.*none\.npz': no such file; .*nothing is downloaded"):
+        check_init(Net(init=str(tmp_path / "none.npz")), model, HM, HM)
+    del sd["features.denseblock1.denselayer3.conv2.weight"]
+    np.savez(path, **sd)
+    with pytest.raises(ValueError, match=r"net\.init '.*densenet121\.npz': DenseNet-121 state dict is missing 1 of"):
+        check_init(net_cfg, model, HM, HM)

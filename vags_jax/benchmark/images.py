@@ -1,4 +1,6 @@
-"""Writing pictures (PNG) with the standard library only, and false-colour maps for depth/heights."""
+"""Writing pictures (PNG) with the standard library only, and false-colour maps for depth/heights.
+
+(``vags_jax.predict.frames`` reads PNGs back: camera frames from files.)"""
 from __future__ import annotations
 
 import struct
@@ -8,9 +10,13 @@ import numpy as np
 
 
 def save_png(path: str, image: np.ndarray) -> None:
-    """Writes an 8-bit PNG.  ``image``: (H, W) grey or (H, W, 3) RGB, uint8 (floats in [0, 1] ok)."""
+    """Writes a PNG.  ``image``: (H, W) grey or (H, W, 3) RGB, uint8 (floats in [0, 1] ok), or
+    (H, W) uint16 grey, written as a 16-bit PNG (depth images in millimetres)."""
     img = np.asarray(image)
-    if img.dtype != np.uint8:
+    bits = 16 if img.dtype == np.uint16 and img.ndim == 2 else 8
+    if bits == 16:
+        img = img.astype(">u2")  # PNG samples are big-endian
+    elif img.dtype != np.uint8:
         if not np.issubdtype(img.dtype, np.floating):
             raise ValueError(f"save_png wants uint8 or float images, got {img.dtype}")
         img = (np.clip(np.nan_to_num(img), 0.0, 1.0) * 255 + 0.5).astype(np.uint8)
@@ -27,7 +33,7 @@ def save_png(path: str, image: np.ndarray) -> None:
         body = kind + data
         return struct.pack(">I", len(data)) + body + struct.pack(">I", zlib.crc32(body) & 0xFFFFFFFF)
 
-    header = struct.pack(">IIBBBBB", w, h, 8, colour_type, 0, 0, 0)
+    header = struct.pack(">IIBBBBB", w, h, bits, colour_type, 0, 0, 0)
     with open(path, "wb") as f:
         f.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw, 6)) + chunk(b"IEND", b""))
     del channels

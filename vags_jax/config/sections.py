@@ -525,12 +525,23 @@ class Net:
     # Worlds per Q-network forward when VAGS decides for many worlds (stages 2-3, eval): GDNet's
     # rotations of 512 worlds at once need tens of GB of activations.  0: all worlds at once.
     forward_batch: int = 128
+    # ImageNet initialisation of both DenseNet-121 trunks of GDNet (stage 1) and VANet (stage 2):
+    # a torchvision DenseNet-121 state dict the user supplies (.pth / .pt, needs torch; or .npz of
+    # the same keys, see vags_jax/nets/pretrained.py).  None: random initialisation.
+    init: Optional[str] = None
 
     def __post_init__(self):
         _check(
             self.trunk in ("densenet121", "small"),
             f"Net.trunk must be 'densenet121' or 'small', got {self.trunk!r}",
         )
+        if self.init is not None:
+            _check(self.trunk == "densenet121",
+                   f"Net.init loads ImageNet weights into DenseNet-121 trunks; set net.trunk=densenet121 "
+                   f"(now {self.trunk!r}) or drop net.init")
+            _check(self.init.lower().endswith((".pth", ".pt", ".npz")),
+                   f"Net.init must be a torchvision DenseNet-121 state dict file (.pth / .pt, or .npz of the same "
+                   f"keys), got {self.init!r}")
         _check(self.dtype in ("float32", "bfloat16"), f"Net.dtype must be float32 or bfloat16, got {self.dtype!r}")
         _within("Net.head_channels", self.head_channels, 1, 1024)
         _within("Net.small_width", self.small_width, 1, 1024)

@@ -4,6 +4,7 @@
 (physics + the latest global-view heightmaps + round counters); an ``Attempt`` is one planned
 grasp per world (direct, or after a viewpoint move).
 """
-from vags_jax.env.environment import Attempt, CameraImage, EnvState, VagsEnv, select_attempt, where_worlds
+from vags_jax.env.environment import (Attempt, CameraImage, EnvState, VagsEnv, grasp_pose, select_attempt,
+                                      where_worlds)
 
-__all__ = ["Attempt", "CameraImage", "EnvState", "VagsEnv", "select_attempt", "where_worlds"]
+__all__ = ["Attempt", "CameraImage", "EnvState", "VagsEnv", "grasp_pose", "select_attempt", "where_worlds"]

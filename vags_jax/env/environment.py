@@ -91,6 +91,19 @@ class Attempt:
     score: Optional[jax.Array] = None
 
 
+def grasp_pose(cfg: Config, height: jax.Array, pixel: jax.Array, rotation: jax.Array):
+    """Heightmap action -> (position (B, 3), yaw (B,)) in the world frame: pixel (B, 2) [row, col]
+    of the height maps (B, H, W), rotation (B,) index.  x, y: the cell centre; z:
+    ``grasp.depth_below_surface`` under the surface height there; yaw: ``rotation *
+    grasp.rotation_step`` (the closing axis, config conventions)."""
+    xy = camera.pixel_to_world_xy(pixel, cfg.workspace)
+    b = jnp.arange(height.shape[0])
+    surface = height[b, pixel[:, 0], pixel[:, 1]]
+    z = cfg.workspace.table_z + surface - cfg.grasp.depth_below_surface
+    yaw = rotation.astype(jnp.float32) * cfg.grasp.rotation_step
+    return jnp.concatenate([xy, z[:, None]], axis=1), yaw
+
+
 def select_attempt(mask: jax.Array, a: Attempt, b: Attempt) -> Attempt:
     """Per world: attempt ``a`` where mask (B,) is set, else ``b``."""
     return jax.tree.map(lambda x, y: jnp.where(mask.reshape((-1,) + (1,) * (x.ndim - 1)), x, y), a, b)
@@ -273,14 +286,8 @@ class VagsEnv:
         return state.replace(color=color, height=height)
 
     def grasp_pose(self, state: EnvState, pixel: jax.Array, rotation: jax.Array):
-        """Heightmap action -> (position (B, 3), yaw (B,)) in the world frame."""
-        cfg = self.cfg
-        xy = camera.pixel_to_world_xy(pixel, cfg.workspace)
-        b = jnp.arange(state.n_worlds)
-        surface = state.height[b, pixel[:, 0], pixel[:, 1]]
-        z = cfg.workspace.table_z + surface - cfg.grasp.depth_below_surface
-        yaw = rotation.astype(jnp.float32) * cfg.grasp.rotation_step
-        return jnp.concatenate([xy, z[:, None]], axis=1), yaw
+        """Heightmap action -> (position (B, 3), yaw (B,)) in the world frame (``grasp_pose``)."""
+        return grasp_pose(self.cfg, state.height, pixel, rotation)
 
     def _start(self, n_worlds: int) -> jax.Array:
         """(B, 3) hand position before a grasp: where the global view was captured."""
@@ -462,4 +469,5 @@ def _raw_key(key) -> jax.Array:
     return key
 
 
-__all__ = ["EnvState", "VagsEnv", "GraspResult", "CameraImage", "Attempt", "select_attempt", "where_worlds"]
+__all__ = ["EnvState", "VagsEnv", "GraspResult", "CameraImage", "Attempt", "grasp_pose", "select_attempt",
+           "where_worlds"]

@@ -12,7 +12,8 @@ Typical use::
 """
 from .densenet import DenseNet121
 from .ggcnn import GGCNN, GGCNNConfig, GraspMaps, init_ggcnn
-from .pretrained import densenet121_key_map, load_densenet121, read_state_dict, to_torchvision_state_dict
+from .pretrained import (check_init, densenet121_key_map, initial_variables, load_densenet121, read_state_dict,
+                         to_torchvision_state_dict)
 from .qnet import (
     GDNet,
     QHead,
@@ -41,5 +42,6 @@ __all__ = [
     "make_qnet", "init_qnet", "init_variables", "variable_shapes", "make_trunk", "trunk_geometry", "padded_size", "rotation_angles",
     "normalise_colour", "normalise_height", "pad_inputs", "rotated_inputs", "coarse_to_heightmap",
     "count_params", "rotate", "unrotate", "sample_bilinear", "source_coords",
-    "densenet121_key_map", "load_densenet121", "read_state_dict", "to_torchvision_state_dict",
+    "densenet121_key_map", "load_densenet121", "read_state_dict", "to_torchvision_state_dict", "initial_variables",
+    "check_init",
 ]

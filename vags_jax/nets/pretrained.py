@@ -16,6 +16,10 @@ Mapping: conv ``weight`` (O, I, kH, kW) -> ``kernel`` (kH, kW, I, O); BN ``weigh
 (batch_stats).  ``classifier.*`` and ``*.num_batches_tracked`` are ignored; ``module.`` prefixes,
 a missing ``features.`` prefix and the old ``norm.1`` / ``conv.2`` spelling are accepted.  The same
 ImageNet weights go into both trunks (colour and depth), as in VPG.
+
+Training reads them through ``net.init`` (``--set net.init=densenet121.pth``): GDNet (stage 1)
+and VANet (stage 2) start from ``initial_variables``; ``check_init`` reads the file before
+anything is compiled.
 """
 from __future__ import annotations
 
@@ -194,6 +198,34 @@ def load_densenet121(variables: Mapping, weights, trunks: Iterable[Optional[str]
         if bad:
             raise ValueError(f"DenseNet-121 weights do not fit trunk {where}: {_show(bad)}")
     return out
+
+
+def initial_variables(key, model, net_cfg, height: int, width: int) -> dict:
+    """A fresh Q-network's ``{"params", "batch_stats"}`` (``init_qnet``) for heightmaps of
+    (height, width), with the ImageNet weights of ``net_cfg.init`` (a ``config.Net``) in both
+    DenseNet-121 trunks when it names a file; the head stays random."""
+    from .qnet import init_qnet
+
+    variables = init_qnet(key, model, height, width)
+    return variables if net_cfg.init is None else load_densenet121(variables, net_cfg.init)
+
+
+def check_init(net_cfg, model, height: int, width: int) -> None:
+    """Reads ``net_cfg.init`` and checks that it fills ``model``'s trunks, with nothing compiled
+    (the variables' shapes are traced).  ValueError (one line) saying what to fix."""
+    if net_cfg.init is None:
+        return
+    from .qnet import variable_shapes
+
+    path = net_cfg.init
+    if not os.path.isfile(path):
+        raise ValueError(f"net.init {path!r}: no such file; give a torchvision DenseNet-121 state dict you have "
+                         f"(.pth, or .npz of the same keys): nothing is downloaded")
+    try:
+        load_densenet121(variable_shapes(model, height, width), path)
+    except (ValueError, ImportError, OSError, KeyError) as e:
+        first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+        raise ValueError(f"net.init {path!r}: {first}") from None
 
 
 def _torch_shape(shape: tuple[int, ...], kind: str) -> tuple[int, ...]:

@@ -152,22 +152,31 @@ def check_frame_points(depth: np.ndarray, cam_pose: np.ndarray, cam_cfg: Camera,
             f"{100 * MIN_VALID_DEPTH:g} %: the heightmap will be (nearly) empty. Check the depth stream "
             f"(is the sensor in range, the image registered, the right channel passed?)"), stacklevel=3)
         return
-    v, u = np.nonzero(valid)
-    z = depth[v, u].astype(np.float64)
+    # World coordinates per pixel, axis by axis, in float32: p = z R [(u - cx) / fx, (v - cy) / fy, 1]
+    # + t (a few whole-image operations: milliseconds for a 640 x 480 frame).
     cx, cy = cam_cfg.principal_point
-    pts = np.stack([(u - cx) / cam_cfg.fx * z, (v - cy) / cam_cfg.fy * z, z], axis=-1)
-    world = pts @ cam_pose[:3, :3].astype(np.float64).T + cam_pose[:3, 3].astype(np.float64)
+    h, w = depth.shape
+    u = ((np.arange(w) - cx) / cam_cfg.fx)[None, :]
+    v = ((np.arange(h) - cy) / cam_cfg.fy)[:, None]
+    rot, t = cam_pose[:3, :3].astype(np.float64), cam_pose[:3, 3].astype(np.float64)
+    z = depth.astype(np.float32)
+
+    def world(k, where=None):  # coordinate k of every pixel's point (of the pixels ``where``)
+        d = ((rot[k, 0] * u + rot[k, 2]).astype(np.float32) + (rot[k, 1] * v).astype(np.float32))
+        return z * d + np.float32(t[k]) if where is None else z[where] * d[where] + np.float32(t[k])
+
+    x, y = world(0), world(1)
     xmin, xmax, ymin, ymax = ws_cfg.bounds
-    inside = (world[:, 0] >= xmin) & (world[:, 0] < xmax) & (world[:, 1] >= ymin) & (world[:, 1] < ymax)
+    inside = valid & (x >= xmin) & (x < xmax) & (y >= ymin) & (y < ymax)
     if not inside.any():
-        c = world.mean(axis=0)
+        c = [float(x[valid].mean()), float(y[valid].mean()), float(world(2, valid).mean())]
         warnings.warn(FrameWarning(
-            f"none of the {len(world)} valid depth points falls inside the workspace square "
+            f"none of the {int(valid.sum())} valid depth points falls inside the workspace square "
             f"x in [{xmin:.3g}, {xmax:.3g}), y in [{ymin:.3g}, {ymax:.3g}) (their mean is at "
             f"{np.round(c, 3).tolist()}): the heightmap will be empty. Check cam_pose (camera-to-world, "
             f"metres, in the robot frame) and workspace.center / workspace.size"), stacklevel=3)
         return
-    below = float((world[inside, 2] < ws_cfg.table_z - BELOW_TABLE_TOLERANCE).mean())
+    below = float((world(2, inside) < ws_cfg.table_z - BELOW_TABLE_TOLERANCE).mean())
     if below > MAX_BELOW_TABLE:
         warnings.warn(FrameWarning(
             f"{100 * below:.0f} % of the depth points inside the workspace lie more than "
@@ -176,26 +185,10 @@ def check_frame_points(depth: np.ndarray, cam_pose: np.ndarray, cam_cfg: Camera,
             f"camera-to-world? another camera convention?), or workspace.table_z is"), stacklevel=3)
 
 
-def heightmap_from_frame(depth, rgb, cam_pose, cam_cfg: Camera, ws_cfg: Workspace):
-    """Heightmaps of ONE real RGB-D frame, with input validation (numpy in, numpy out).
-
-    Args:
-      depth: (h, w) float depth in metres (z along the optical axis); 0, NaN and inf are
-        treated as missing.  (h, w) must equal (cam_cfg.height, cam_cfg.width).
-      rgb: (h, w, 3) uint8 colour image registered to the depth image.
-      cam_pose: (4, 4) camera-to-world transform (OpenCV camera frame) in the robot frame.
-    Returns:
-      color_hm (H, W, 3) uint8 and height_hm (H, W) float32.
-    Raises:
-      ValueError with a hint for wrong shapes, dtypes, millimetre depth, negative depth, a pose
-      that is not a rigid transform, a pose in millimetres (more than 10 m from the origin), a
-      camera at or below the table or one not looking down (a world-to-camera pose, or the
-      OpenGL convention).
-    Warns:
-      FrameWarning when under 1 % of the pixels have depth, no point falls inside the
-      workspace, or over a quarter of the workspace points lie 2 cm or more below the table.
-      All checks run before anything is compiled.
-    """
+def check_frame(depth, rgb, cam_pose, cam_cfg: Camera, ws_cfg: Workspace):
+    """The checks of `heightmap_from_frame` on ONE real RGB-D frame, without projecting it ->
+    ``(depth (h, w) float32 metres, 0 = missing; rgb (h, w, 3) uint8; cam_pose (4, 4) float32)``.
+    Raises ValueError and warns (``FrameWarning``) as `heightmap_from_frame` says."""
     depth = np.asarray(depth)
     rgb = np.asarray(rgb)
     cam_pose = np.asarray(cam_pose)
@@ -241,5 +234,29 @@ def heightmap_from_frame(depth, rgb, cam_pose, cam_cfg: Camera, ws_cfg: Workspac
             "millimetres; divide by 1000 to give metres"
         )
     check_frame_points(depth, cam_pose, cam_cfg, ws_cfg)
-    color, height = heightmaps(depth[None], rgb[None], cam_pose[None].astype(np.float32), cam_cfg, ws_cfg)
+    return depth, rgb, cam_pose.astype(np.float32)
+
+
+def heightmap_from_frame(depth, rgb, cam_pose, cam_cfg: Camera, ws_cfg: Workspace):
+    """Heightmaps of ONE real RGB-D frame, with input validation (numpy in, numpy out).
+
+    Args:
+      depth: (h, w) float depth in metres (z along the optical axis); 0, NaN and inf are
+        treated as missing.  (h, w) must equal (cam_cfg.height, cam_cfg.width).
+      rgb: (h, w, 3) uint8 colour image registered to the depth image.
+      cam_pose: (4, 4) camera-to-world transform (OpenCV camera frame) in the robot frame.
+    Returns:
+      color_hm (H, W, 3) uint8 and height_hm (H, W) float32.
+    Raises:
+      ValueError with a hint for wrong shapes, dtypes, millimetre depth, negative depth, a pose
+      that is not a rigid transform, a pose in millimetres (more than 10 m from the origin), a
+      camera at or below the table or one not looking down (a world-to-camera pose, or the
+      OpenGL convention).
+    Warns:
+      FrameWarning when under 1 % of the pixels have depth, no point falls inside the
+      workspace, or over a quarter of the workspace points lie 2 cm or more below the table.
+      All checks run before anything is compiled.
+    """
+    depth, rgb, cam_pose = check_frame(depth, rgb, cam_pose, cam_cfg, ws_cfg)
+    color, height = heightmaps(depth[None], rgb[None], cam_pose[None], cam_cfg, ws_cfg)
     return np.asarray(color[0]), np.asarray(height[0])

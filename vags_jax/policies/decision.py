@@ -136,6 +136,20 @@ def decide(q_grasp: jax.Array, q_view: jax.Array, threshold, q_success: Optional
     return Decision(direct=score > threshold, grasp=grasp, view=view, q_max=q_max, score=score)
 
 
+def fused_grasp(color: jax.Array, height: jax.Array, depth: jax.Array, rgb: jax.Array, pose: jax.Array,
+                cam_cfg, ws_cfg, gdnet_q: Callable):
+    """The "gdnet" close-view planner's grasp: the close images depth (B, h, w) / rgb (B, h, w, 3)
+    taken at pose (B, 4, 4) with camera cam_cfg, fused into the global maps color (B, H, W, 3) /
+    height (B, H, W) (``view_fusion``), then GDNet's argmax among the cells the close view saw
+    (anywhere if it saw none) -> (action (B, 3) int32 [rotation, row, col], its Q (B,) float32,
+    the fused color (B, H, W, 3) and height (B, H, W), seen (B, H, W) bool)."""
+    color, height, seen = view_fusion.fuse_close_view(color, height, depth, rgb, pose, cam_cfg, ws_cfg)
+    q = gdnet_q(color, height)  # (B, R, H, W)
+    region = jnp.where(seen.any(axis=(1, 2), keepdims=True), seen, True)
+    action, q_max = greedy(jnp.where(region[:, None], q, -jnp.inf))
+    return action, q_max, color, height, seen
+
+
 def close_view_grasp(cfg: Config, env: VagsEnv, state: EnvState, view: jax.Array, key,
                      gdnet_q: Optional[Callable] = None, ggcnn_params=None, ggcnn_model=None):
     """Move the camera above view (B, 2) [row, col], take the close image (key: its sensor
@@ -148,12 +162,8 @@ def close_view_grasp(cfg: Config, env: VagsEnv, state: EnvState, view: jax.Array
     if cfg.vags.local_planner == "gdnet":
         if gdnet_q is None:
             raise ValueError("the 'gdnet' close-view planner needs GDNet")
-        color, height, seen = view_fusion.fuse_close_view(state.color, state.height, image.depth, image.rgb, pose,
-                                                          cfg.camera, cfg.workspace)
-        q = gdnet_q(color, height)  # (B, R, H, W)
-        # Grasp where the close view looked; anywhere if it saw no cell of the workspace.
-        region = jnp.where(seen.any(axis=(1, 2), keepdims=True), seen, True)
-        action, _ = greedy(jnp.where(region[:, None], q, -jnp.inf))
+        action, _, color, height, seen = fused_grasp(state.color, state.height, image.depth, image.rgb, pose,
+                                                     cfg.camera, cfg.workspace, gdnet_q)
         position, yaw = env.grasp_pose(state.replace(height=height), action[:, 1:], action[:, 0])
         close = CloseView(image=image, color=color, height=height, seen=seen, action=action)
     else:
@@ -200,13 +210,19 @@ class VagsNets:
         """``(color, height) -> (B, R, H, W)`` GDNet's Q with ``variables`` (eval mode)."""
         return self.q_fn(self.gdnet, variables)
 
-    def decide(self, params: dict, state: EnvState):
-        """-> (Decision, GDNet's Q (B, R, H, W), VANet's Q (B, H, W)) on the global views."""
-        q_grasp = self.gdnet_q(params["gdnet"])(state.color, state.height)
-        q_view = self.q_fn(self.vanet, params["vanet"])(state.color, state.height)
+    def q_maps(self, params: dict, color: jax.Array, height: jax.Array):
+        """Global maps color (B, H, W, 3) / height (B, H, W) -> (GDNet's Q (B, R, H, W), VANet's Q
+        (B, H, W), the success net's (B, R, H, W) for the "success" gate, else None)."""
+        q_grasp = self.gdnet_q(params["gdnet"])(color, height)
+        q_view = self.q_fn(self.vanet, params["vanet"])(color, height)
         q_success = None
         if self.cfg.vags.gate == "success":
-            q_success = self.q_fn(self.gdnet, params["success"])(state.color, state.height)
+            q_success = self.q_fn(self.gdnet, params["success"])(color, height)
+        return q_grasp, q_view, q_success
+
+    def decide(self, params: dict, state: EnvState):
+        """-> (Decision, GDNet's Q (B, R, H, W), VANet's Q (B, H, W)) on the global views."""
+        q_grasp, q_view, q_success = self.q_maps(params, state.color, state.height)
         decision = decide(q_grasp, q_view, params["threshold"], q_success, self.cfg.vags.gate,
                           params.get("calibration"))
         return decision, q_grasp, q_view
@@ -220,4 +236,5 @@ class VagsNets:
 
 
 __all__ = ["Decision", "CloseView", "greedy", "value_at", "gate_score", "update_calibration", "gate_threshold", "decide",
+           "fused_grasp",
            "close_view_grasp", "plan_attempt", "VagsNets"]

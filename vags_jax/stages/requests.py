@@ -3,8 +3,9 @@
 Each ``prepare_*`` takes the parsed command line (``args``: config, set, out, resume, stage,
 data_dir, chunk, checkpoint_every, max_minutes, quiet) and returns a plan (``SimpleNamespace``)
 for ``vags_jax.stages.driver``, or raises ``ValueError`` (``CheckpointError``) with one line
-saying what to fix: a bad ``--set`` value, an ``--out`` a run would damage, a damaged or
-foreign run directory, a ``--resume`` that would rewrite the run's config.
+saying what to fix: a bad ``--set`` value, a ``net.init`` file that is missing or does not
+fit the trunks, an ``--out`` a run would damage, a damaged or foreign run directory, a
+``--resume`` that would rewrite the run's config.
 """
 from __future__ import annotations
 
@@ -15,6 +16,7 @@ from types import SimpleNamespace
 from vags_jax import cli
 from vags_jax import config as C
 from vags_jax.ggcnn import data as ggcnn_data
+from vags_jax.nets import check_init, make_qnet
 from vags_jax.sim import scene
 from vags_jax.stages import checkpoint, rundir, stage1
 from vags_jax.stages import ggcnn as ggcnn_stage
@@ -118,6 +120,7 @@ def prepare_stage1(args) -> SimpleNamespace:
         check_fresh_out(args.out)
         cfg = C.replace(C.preset(args.config or "tiny"), **overrides)
         scene.build_spec(cfg)  # the scene's own checks (shape names), in milliseconds
+        check_net_init(cfg)
         return SimpleNamespace(cfg=cfg, step=0, arrays=None, done=None, raised_from=None)
 
     if args.config is not None:
@@ -151,6 +154,15 @@ def prepare_stage1(args) -> SimpleNamespace:
     if raised is not None:
         check_not_built_on(args.out, "stage1")
     return SimpleNamespace(cfg=cfg, step=step, arrays=arrays, done=None, raised_from=raised)
+
+
+def check_net_init(cfg) -> None:
+    """net.init (ImageNet DenseNet-121 weights) read and checked against the trunks before
+    anything is compiled; ValueError saying what to fix."""
+    if cfg.net.init is None:
+        return
+    H = cfg.workspace.heightmap_px
+    check_init(cfg.net, make_qnet(cfg.net, "gdnet"), H, H)
 
 
 def read_stage1_checkpoint(out: str, cfg, step: int) -> dict:
@@ -205,6 +217,7 @@ def prepare_pipeline(args, only):
         cfg = C.replace(C.preset(args.config or "tiny"), **overrides)
         if rundir.needs_ggcnn(cfg):
             check_ggcnn_config(cfg)
+        check_net_init(cfg)
         if os.path.isdir(args.out):  # a GG-CNN already trained into --out with this config is reused
             why = rundir.ggcnn_reusable(args.out, cfg)
             if why:
@@ -254,6 +267,8 @@ def prepare_pipeline(args, only):
                 raise ValueError(f"{only} starts from the end of {rundir.DESCRIPTION[name]}, and {args.out} "
                                  f"{state} there: run python train.py --out {args.out} --resume (every stage "
                                  f"in order) or --stage {name} first")
+    if not (rundir.progress(args.out, "stage1") and rundir.progress(args.out, "stage2")):
+        check_net_init(cfg)  # stage 1's GDNet or stage 2's VANet still starts from net.init
     ggcnn_left = only is None and rundir.progress(args.out, "ggcnn") < rundir.total(cfg, "ggcnn")
     data_dir = check_data_dir(args.data_dir) if ggcnn_left else None
     if ggcnn_left:

@@ -32,7 +32,7 @@ from flax import struct
 from vags_jax.rl import dqn, exploration, replay
 from vags_jax.config import Config
 from vags_jax.env import EnvState, VagsEnv
-from vags_jax.nets import init_qnet, make_qnet
+from vags_jax.nets import init_qnet, initial_variables, make_qnet
 
 
 @struct.dataclass
@@ -87,7 +87,7 @@ class Stage1:
         k_net, k_n, k_env, k_loop = jax.random.split(key, 4)
         H = cfg.workspace.heightmap_px
         if learner is None:
-            learner = dqn.create_train_state(init_qnet(k_net, self.net, H, H), cfg.dqn)
+            learner = dqn.create_train_state(initial_variables(k_net, self.net, cfg.net, H, H), cfg.dqn)
         env_state = self.env.reset(k_env, np.asarray(self._n_objects(k_n, cfg.stage1.n_worlds)))
         example = replay.make_grasp_transition(
             env_state.color[0], env_state.height[0], jnp.zeros((3,), jnp.int32), 0.0,

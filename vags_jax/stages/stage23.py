@@ -49,7 +49,7 @@ from vags_jax.config import Config, Stage, Vags
 from vags_jax.policies.decision import (Decision, gate_score, gate_threshold, greedy, plan_attempt, update_calibration,
                                value_at)
 from vags_jax.env import EnvState, VagsEnv
-from vags_jax.nets import init_qnet, make_qnet
+from vags_jax.nets import initial_variables, make_qnet
 from vags_jax.nets.ggcnn import GGCNN
 
 
@@ -196,7 +196,7 @@ class VagsStage:
         k_net, k_n, k_env, k_loop = jax.random.split(key, 4)
         H = cfg.workspace.heightmap_px
         if vanet is None:
-            vanet = dqn.create_train_state(init_qnet(k_net, self.vanet, H, H), cfg.dqn)
+            vanet = dqn.create_train_state(initial_variables(k_net, self.vanet, cfg.net, H, H), cfg.dqn)
         if success is None:
             success = dqn.create_train_state(jax.tree.map(jnp.array, self._vars(gdnet)), cfg.dqn)
         env_state = self.env.reset(k_env, np.asarray(self._n_objects(k_n, self.stage.n_worlds)))
