@@ -82,3 +82,22 @@ def test_a_second_ctrl_c_abandons_at_once():
             assert stop.signal == "SIGINT"
             os.kill(os.getpid(), signal.SIGINT)
             time.sleep(0.05)
+
+
+@pytest.mark.parametrize("argv", [["--config", "tiny"], ["--config", "tiny", "--stage", "gdnet"],
+                                  ["--config", "tiny", "--stage", "ggcnn"]], ids=["pipeline", "stage1", "ggcnn"])
+def test_train_refuses_a_run_directory_another_process_holds(argv, tmp_path, capsys):
+    """A second train.py on the same --out: one line naming the holder, exit code 2, before
+    anything is built or written (the directory holds only the holder's lock)."""
+    import train
+
+    run = str(tmp_path / "run")
+    p = _holder(run)
+    try:
+        assert train.main(argv + ["--out", run, "--quiet"]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith("train.py: error: ") and f"in use by pid {p.pid}" in err[0]
+        assert os.listdir(run) == [LOCK_FILE]
+    finally:
+        p.terminate()
+        p.wait()

@@ -26,7 +26,7 @@ from vags_jax import cli
 from vags_jax import config as C
 from vags_jax.env import VagsEnv
 from vags_jax.ggcnn import data as ggcnn_data
-from vags_jax.stages import checkpoint, pipeline, requests, rundir, stage23
+from vags_jax.stages import checkpoint, pipeline, requests, run_lock, rundir, stage23
 from vags_jax.stages import ggcnn as ggcnn_stage
 from vags_jax.stages.stage1 import Stage1
 from vags_jax.stages.stage23 import VagsStage
@@ -112,13 +112,28 @@ def train_ggcnn_into(cfg, out: str, data_dir: str, quiet: bool, programs: Progra
     return 0, summary, params
 
 
+def _acquire_lock(out: str):
+    """The run directory's lock (``run_lock.RunLock``, held until released), or exit code 2 with
+    one line naming the process that holds it."""
+    try:
+        return run_lock.RunLock(out, log=log).acquire()
+    except run_lock.RunLockedError as e:
+        return fail(e)
+
+
 def main_ggcnn(args, programs: Programs) -> int:
     """--stage ggcnn: data (made or reused), training, held-out accuracy, checkpoint."""
     try:
         plan = requests.prepare_ggcnn(args)
     except ValueError as e:
         return fail(e)
-    code, summary, _ = train_ggcnn_into(plan.cfg, args.out, plan.data_dir, args.quiet, programs, args.chunk)
+    lock = _acquire_lock(args.out)
+    if isinstance(lock, int):
+        return lock
+    try:
+        code, summary, _ = train_ggcnn_into(plan.cfg, args.out, plan.data_dir, args.quiet, programs, args.chunk)
+    finally:
+        lock.release()
     if summary is not None:
         print(json.dumps(summary))
     return code
@@ -327,6 +342,17 @@ def main_stage1(args, programs: Programs) -> int:
     if plan.done:
         print(plan.done, file=sys.stderr)
         return 0
+    lock = _acquire_lock(args.out)
+    if isinstance(lock, int):
+        return lock
+    try:
+        return _stage1_locked(args, plan, programs)
+    finally:
+        lock.release()
+
+
+def _stage1_locked(args, plan, programs: Programs) -> int:
+    """The rest of ``main_stage1`` while the run's lock is held."""
     if not args.resume:  # a run directory with no checkpoint (a failed start) is reused: clear what it left
         leftover = os.path.join(args.out, checkpoint.CHECKPOINT_DIR)
         if os.path.isdir(leftover):
@@ -361,6 +387,17 @@ def main_pipeline(args, only, programs: Programs) -> int:
         plan = requests.prepare_pipeline(args, only)
     except ValueError as e:
         return fail(e)
+    lock = _acquire_lock(args.out)
+    if isinstance(lock, int):
+        return lock
+    try:
+        return _pipeline_locked(args, only, plan, programs)
+    finally:
+        lock.release()
+
+
+def _pipeline_locked(args, only, plan, programs: Programs) -> int:
+    """The rest of ``main_pipeline`` while the run's lock is held."""
     cfg = plan.cfg
     if plan.fresh:
         _clear_failed_start(args.out)

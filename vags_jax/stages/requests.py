@@ -18,12 +18,13 @@ from vags_jax import config as C
 from vags_jax.ggcnn import data as ggcnn_data
 from vags_jax.nets import check_init, make_qnet
 from vags_jax.sim import scene
-from vags_jax.stages import checkpoint, rundir, stage1
+from vags_jax.stages import checkpoint, run_lock, rundir, stage1
 from vags_jax.stages import ggcnn as ggcnn_stage
 
 # What a run directory may hold besides its checkpoints, for --out to be reused by a fresh run
 # when it has no checkpoint yet (a run that failed before its first checkpoint).
-RUN_LEFTOVERS = ("config.json", "metrics.jsonl", "checkpoints", "ggcnn", "stage2", "stage3", "timings.jsonl")
+RUN_LEFTOVERS = ("config.json", "metrics.jsonl", "checkpoints", "ggcnn", "stage2", "stage3", "timings.jsonl",
+                 run_lock.LOCK_FILE)
 ITERATION_KEYS = ("stage1.iterations", "stage2.iterations", "stage3.iterations")
 
 
@@ -215,6 +216,7 @@ def prepare_pipeline(args, only):
     if fresh:
         check_fresh_out(args.out)
         cfg = C.replace(C.preset(args.config or "tiny"), **overrides)
+        scene.build_spec(cfg)  # the scene's own checks (an unknown shape), before anything is written
         if rundir.needs_ggcnn(cfg):
             check_ggcnn_config(cfg)
         check_net_init(cfg)
