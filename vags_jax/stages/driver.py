@@ -112,13 +112,17 @@ def train_ggcnn_into(cfg, out: str, data_dir: str, quiet: bool, programs: Progra
     return 0, summary, params
 
 
-def _acquire_lock(out: str):
-    """The run directory's lock (``run_lock.RunLock``, held until released), or exit code 2 with
-    one line naming the process that holds it."""
+def _under_lock(out: str, run: Callable[[], int]) -> int:
+    """``run()`` while holding the run directory's lock (``run_lock.RunLock``) -> its exit code;
+    exit code 2 with one line naming the holder when another live process has it."""
     try:
-        return run_lock.RunLock(out, log=log).acquire()
+        lock = run_lock.RunLock(out, log=log).acquire()
     except run_lock.RunLockedError as e:
         return fail(e)
+    try:
+        return run()
+    finally:
+        lock.release()
 
 
 def main_ggcnn(args, programs: Programs) -> int:
@@ -127,13 +131,12 @@ def main_ggcnn(args, programs: Programs) -> int:
         plan = requests.prepare_ggcnn(args)
     except ValueError as e:
         return fail(e)
-    lock = _acquire_lock(args.out)
-    if isinstance(lock, int):
-        return lock
-    try:
-        code, summary, _ = train_ggcnn_into(plan.cfg, args.out, plan.data_dir, args.quiet, programs, args.chunk)
-    finally:
-        lock.release()
+    return _under_lock(args.out, lambda: _ggcnn_locked(args, plan, programs))
+
+
+def _ggcnn_locked(args, plan, programs: Programs) -> int:
+    """The rest of ``main_ggcnn`` while the run's lock is held."""
+    code, summary, _ = train_ggcnn_into(plan.cfg, args.out, plan.data_dir, args.quiet, programs, args.chunk)
     if summary is not None:
         print(json.dumps(summary))
     return code
@@ -342,13 +345,7 @@ def main_stage1(args, programs: Programs) -> int:
     if plan.done:
         print(plan.done, file=sys.stderr)
         return 0
-    lock = _acquire_lock(args.out)
-    if isinstance(lock, int):
-        return lock
-    try:
-        return _stage1_locked(args, plan, programs)
-    finally:
-        lock.release()
+    return _under_lock(args.out, lambda: _stage1_locked(args, plan, programs))
 
 
 def _stage1_locked(args, plan, programs: Programs) -> int:
@@ -387,13 +384,7 @@ def main_pipeline(args, only, programs: Programs) -> int:
         plan = requests.prepare_pipeline(args, only)
     except ValueError as e:
         return fail(e)
-    lock = _acquire_lock(args.out)
-    if isinstance(lock, int):
-        return lock
-    try:
-        return _pipeline_locked(args, only, plan, programs)
-    finally:
-        lock.release()
+    return _under_lock(args.out, lambda: _pipeline_locked(args, only, plan, programs))
 
 
 def _pipeline_locked(args, only, plan, programs: Programs) -> int:
