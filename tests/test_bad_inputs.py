@@ -552,12 +552,10 @@ def test_train_resume_names_the_damage(kind, stage, tmp_path, capsys, fake_run):
     run = fake_run(tmp_path)
     _damage(run, kind)
     before = _snapshot(run)
-    t = time.time()
     code, line = _cli(train.main, ["--out", run, "--resume", "--quiet"] + stage, capsys)
     assert code == 2 and line.startswith("train.py: error: ")
     assert re.search({**DAMAGE, **TRAIN_ONLY}[kind], line), line
     assert _snapshot(run) == before, "a refused --resume must not touch the run"
-    assert time.time() - t < 10
 
 
 @pytest.mark.parametrize("kind", sorted(DAMAGE))

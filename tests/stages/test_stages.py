@@ -3,7 +3,6 @@ close-view planner does not use) trained a few iterations, checkpointed, resumed
 import json
 import os
 import shutil
-import time
 
 import jax
 import jax.numpy as jnp
@@ -273,7 +272,8 @@ def _cut(paths):
 
 def test_damaged_checkpoint_is_named_before_compiling(runs, tmp_path, capsys):
     """The latest checkpoint's largest file cut in half (a partial copy): train.py --resume,
-    which reads it all, names the step directory and the fallback, in one line, in seconds.
+    which reads it all, names the step directory and the fallback, in one line (tests/test_bad_inputs.py checks
+    that such refusals compile nothing).
     eval.py reads only the learner, which may lie in other files: with every data file cut it
     says the same."""
     run = str(tmp_path / "run")
@@ -286,13 +286,11 @@ def test_damaged_checkpoint_is_named_before_compiling(runs, tmp_path, capsys):
     train_argv = ["--out", run, "--resume", "--stage", "gdnet", "--quiet", "--set", "stage1.iterations=6"]
     eval_argv = ["--run", run, "--groups", "1-2", "--rounds", "2"]
     for main, argv in ((train.main, train_argv), (_cut_all_then(eval_cli.main, step_dir), eval_argv)):
-        t = time.time()
         assert main(argv) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and "Traceback" not in err[0], err
         assert f"checkpoint 4 in {run} is damaged or incomplete" in err[0]
         assert f"delete {step_dir} to go back to checkpoint 2" in err[0]
-        assert time.time() - t < 30
 
 
 def _cut_all_then(main, step_dir):
