@@ -271,12 +271,12 @@ class Sim:
     impratio: float = 10.0  # friction-to-normal impedance ratio (elliptic cones); ``tiny`` uses 1
     solver: str = "newton"  # MuJoCo constraint solver: "newton" or "cg"
     tolerance: float = 1e-8  # MuJoCo opt.tolerance: the solver stops early below this improvement
-    # Contact / constraint buffers.  None -> sized from the scene (see vags_jax/sim/simulator.py).
+    # Contact / constraint buffers.  None -> sized from the scene (see vags_jax/sim/buffers.py).
     naconmax: Optional[int] = None  # warp: contacts across all worlds
     njmax: Optional[int] = None  # warp: constraint rows per world
     # Contact budget per world.  jax: MJX "max_contact_points" (the deepest contacts are kept; cuts
     # constraint rows); warp: naconmax = B * this when naconmax is None.
-    # None -> 20 * scene.max_objects + 56 (see vags_jax/sim/simulator.py).  Overflow is flagged in SimState.overflow.
+    # None -> 20 * scene.max_objects + 56 (see vags_jax/sim/buffers.py).  Overflow is flagged in SimState.overflow.
     contacts_per_world: Optional[int] = None
     # MuJoCo sleeping (impl "warp" only): bodies at rest stop being simulated until touched; off in
     # every preset, it cost attempts/s in the H100 training loop (bench/RESULTS.md, "Environment throughput",
