@@ -31,6 +31,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .densenet import BLOCK_CONFIG
+from .qnet import init_qnet, variable_shapes
 
 TO_NPZ_HINT = (
     "convert the checkpoint to .npz on any machine with torch: python -c \"import sys, torch, numpy "
@@ -204,8 +205,6 @@ def initial_variables(key, model, net_cfg, height: int, width: int) -> dict:
     """A fresh Q-network's ``{"params", "batch_stats"}`` (``init_qnet``) for heightmaps of
     (height, width), with the ImageNet weights of ``net_cfg.init`` (a ``config.Net``) in both
     DenseNet-121 trunks when it names a file; the head stays random."""
-    from .qnet import init_qnet
-
     variables = init_qnet(key, model, height, width)
     return variables if net_cfg.init is None else load_densenet121(variables, net_cfg.init)
 
@@ -215,7 +214,6 @@ def check_init(net_cfg, model, height: int, width: int) -> None:
     (the variables' shapes are traced).  ValueError (one line) saying what to fix."""
     if net_cfg.init is None:
         return
-    from .qnet import variable_shapes
 
     path = net_cfg.init
     if not os.path.isfile(path):

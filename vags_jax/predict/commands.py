@@ -31,10 +31,23 @@ import os
 import sys
 import warnings
 
+import jax.numpy as jnp
 import numpy as np
 
 from vags_jax import cli
-from vags_jax.predict.policy import Frame, FramePolicy, check_frame, draw_decision, run_config
+from vags_jax import config as C
+from vags_jax.benchmark.images import save_png
+from vags_jax.env import VagsEnv
+from vags_jax.perception import camera, heightmap
+from vags_jax.predict import frames
+from vags_jax.predict.policy import (
+    Frame,
+    FramePolicy,
+    check_frame,
+    draw_decision,
+    run_config,
+)
+from vags_jax.stages import checkpoint
 
 PROG = "predict"
 CLOSE_TOLERANCE = 0.05  # m: a close frame further than this from the suggested viewpoint is reported
@@ -62,8 +75,6 @@ def _parser():
 
 def read_frame(rgb: str, depth: str, intrinsics: str, pose: str) -> Frame:
     """A frame's four files -> Frame; ValueError (one line) naming the file and the fix."""
-    from vags_jax.predict import frames
-
     cam = frames.read_intrinsics(intrinsics)
     d = frames.read_depth(depth)
     c = frames.read_rgb(rgb)
@@ -74,9 +85,6 @@ def read_frame(rgb: str, depth: str, intrinsics: str, pose: str) -> Frame:
 
 def main_predict(argv) -> int:
     args = _parser().parse_args(argv)
-    from vags_jax import config as C
-    from vags_jax.perception import heightmap
-    from vags_jax.predict import frames
 
     try:
         with warnings.catch_warnings():
@@ -106,7 +114,6 @@ def main_predict(argv) -> int:
         print(f"{PROG}: warning: the close frame was taken {100 * result['close_frame']['distance_to_viewpoint_m']:.1f} "
               f"cm from the viewpoint asked for", file=sys.stderr)
     if args.out_image:
-        from vags_jax.benchmark.images import save_png
 
         shown = close if close is not None and result["grasp"]["view"] == "close" else frame
         save_png(args.out_image, draw_decision(shown, result))
@@ -137,8 +144,6 @@ def _sim_parser(command: str):
 
 
 def _sim_config(args):
-    from vags_jax import config as C
-    from vags_jax.stages import checkpoint
 
     if args.run and args.config:
         raise ValueError("--run uses the run's own config.json; drop --config")
@@ -153,7 +158,6 @@ def _sim_config(args):
 
 
 def _read_grasp(path: str):
-    from vags_jax.predict import frames
 
     obj = frames._json(path, "--grasp")
     g = obj.get("grasp") if isinstance(obj, dict) else None
@@ -168,7 +172,6 @@ def _read_grasp(path: str):
 
 def main_sim(command: str, argv) -> int:
     args = _sim_parser(command).parse_args(argv)
-    from vags_jax.predict import frames
 
     try:
         cfg, n = _sim_config(args)
@@ -183,10 +186,7 @@ def main_sim(command: str, argv) -> int:
             grasp = _read_grasp(args.grasp)
     except ValueError as e:
         return cli.fail(f"{PROG} {command}", e)
-    import jax.numpy as jnp
 
-    from vags_jax.env import VagsEnv
-    from vags_jax.perception import camera
 
     env = VagsEnv(cfg)
     state = frames.scene_state(env, args.seed, n)

@@ -30,8 +30,11 @@ import struct
 import zlib
 from typing import Optional
 
+import jax
+import jax.numpy as jnp
 import numpy as np
 
+from vags_jax.benchmark.images import save_png
 from vags_jax.config import Camera, Workspace
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
@@ -331,8 +334,6 @@ def write_frame(directory: str, rgb, depth, pose, cam: Camera, ws: Optional[Work
     ``depth_format="npy"``), ``{prefix}pose.json``, ``K.json`` and (``ws``) ``ws.json`` ->
     {"rgb", "depth", "pose", "intrinsics", "workspace"} paths.  rgb (h, w, 3) uint8, depth (h, w)
     metres (0 = missing), pose (4, 4) camera-to-world."""
-    from vags_jax.benchmark.images import save_png
-
     if depth_format not in ("png", "npy"):
         raise ValueError(f"depth_format must be 'png' or 'npy', got {depth_format!r}")
     os.makedirs(directory, exist_ok=True)
@@ -362,8 +363,6 @@ def scene_state(env, seed: int, n_objects: int):
     """The simulated scene of ``seed`` with ``n_objects`` objects (one world, dropped and
     settled as in training: ``VagsEnv.reset``) -> EnvState.  The same arguments give the same
     scene, so a later call can render it from another pose or grasp in it."""
-    import jax
-
     return env.reset(jax.random.PRNGKey(seed), np.array([n_objects]))
 
 
@@ -371,9 +370,6 @@ def render_frame(env, sim_state, pose, key=None):
     """World 0 of ``sim_state`` (``SimState``) seen by the env's camera from ``pose`` (4, 4),
     sensor model included (``VagsEnv.camera_image``; key: its noise) -> (rgb (h, w, 3) uint8,
     depth (h, w) float32 metres, pose (4, 4) float32) as numpy."""
-    import jax
-    import jax.numpy as jnp
-
     pose = jnp.broadcast_to(jnp.asarray(pose, jnp.float32), (sim_state.n_worlds, 4, 4))
     if key is None and env.cfg.camera.noise.enabled:
         key = jax.random.PRNGKey(0)
@@ -384,8 +380,6 @@ def render_frame(env, sim_state, pose, key=None):
 def simulator_frame_key(seed: int, pose_index: int):
     """The sensor-noise key of the simulator commands in scene ``seed``: 0 for write-frames'
     global view, 1 for its frame at another pose, 2 for execute's view after the grasp."""
-    import jax
-
     return jax.random.fold_in(jax.random.PRNGKey(seed), 1000 + pose_index)
 
 

@@ -17,7 +17,18 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from vags_jax import config as C
+from vags_jax.benchmark.record import _Panel
 from vags_jax.config import Camera
+from vags_jax.env import grasp_pose
+from vags_jax.ggcnn.planner import predict_grasp
+from vags_jax.perception import camera, heightmap
+from vags_jax.policies import decision
+from vags_jax.policies.catalog import vags_params
+from vags_jax.policies.decision import VagsNets
+from vags_jax.stages import checkpoint, rundir
+from vags_jax.stages.ggcnn import ggcnn_dir
+from vags_jax.stages.rundir import load_gdnet
 
 # Workspace fields a frame may move (ws.json); size and heightmap_px fix the grid the networks learned.
 FIXED_WORKSPACE = ("size", "heightmap_px")
@@ -29,7 +40,6 @@ class Frame:
     """One RGB-D frame: rgb (h, w, 3) uint8 registered to depth (h, w) metres along the optical
     axis (0 or NaN = missing); pose (4, 4) camera-to-world (OpenCV axes, metres); camera: its
     intrinsics (``Camera`` with width = w, height = h)."""
-
     rgb: np.ndarray
     depth: np.ndarray
     pose: np.ndarray
@@ -52,9 +62,6 @@ def _json_floats(a) -> list:
 def run_config(run_dir: str, overrides: Optional[dict] = None):
     """A run's config with ``overrides`` (dotted keys; not net.*, nor the workspace's size and
     grid: the networks learned on them) -> Config.  ValueError (one line) with what to fix."""
-    from vags_jax import config as C
-    from vags_jax.stages import checkpoint
-
     if not os.path.isdir(run_dir):
         raise ValueError(f"run directory {run_dir!r} does not exist" if not os.path.exists(run_dir) else
                          f"--run {run_dir!r} is a file; give the run directory train.py wrote")
@@ -76,8 +83,6 @@ def run_config(run_dir: str, overrides: Optional[dict] = None):
 def check_frame(frame: Frame, ws, what: str = "frame"):
     """``heightmap.check_frame`` on a frame for the workspace ``ws`` -> (depth, rgb, pose) as
     the programs take them; ValueError naming ``what``; ``FrameWarning`` as it warns."""
-    from vags_jax.perception import heightmap
-
     try:
         return heightmap.check_frame(frame.depth, frame.rgb, frame.pose, frame.camera, ws)
     except (ValueError, heightmap.FrameWarning) as e:  # a FrameWarning raises where warnings are errors
@@ -99,12 +104,8 @@ class FramePolicy:
     arguments of the compiled programs: another threshold in ``policy.params["threshold"]``
     compiles nothing.
     """
-
     def __init__(self, run_dir: str, overrides: Optional[dict] = None, threshold: Optional[float] = None,
                  no_viewpoint: bool = False, step: Optional[int] = None):
-        from vags_jax.policies.catalog import vags_params
-        from vags_jax.stages import checkpoint, rundir
-        from vags_jax.stages.rundir import load_gdnet
 
         if threshold is not None and no_viewpoint:
             raise ValueError("--no-viewpoint fixes the threshold at -inf: drop --threshold")
@@ -133,7 +134,6 @@ class FramePolicy:
         if s not in steps:
             raise ValueError(f"no checkpoint {s} in {d} (available steps: {steps}); drop --step or give one of them")
         parts = checkpoint.saved_parts(d, s)
-        from vags_jax.stages.ggcnn import ggcnn_dir
 
         has_ggcnn = os.path.isdir(ggcnn_dir(run_dir))
         vags_params(SimpleNamespace(success=() if "success" in parts else None, ggcnn=() if has_ggcnn else None,
@@ -228,7 +228,6 @@ class FramePolicy:
                 "pixel": [int(action[1]), int(action[2])], "rotation": int(action[0])}
 
     def _ggcnn_grasp(self, c: dict) -> dict:
-        from vags_jax.perception import camera
 
         ws, g = self.cfg.workspace, self.cfg.grasp
         position = c["position"][0]
@@ -248,7 +247,6 @@ class FramePolicy:
 
 @functools.lru_cache(maxsize=None)
 def _nets(cfg):
-    from vags_jax.policies.decision import VagsNets
 
     return VagsNets(cfg)
 
@@ -258,10 +256,6 @@ def _global_program(params, depth, rgb, pose, *, cfg, cam, gdnet_only):
     """One global frame (depth (h, w), rgb (h, w, 3), pose (4, 4)) -> the decision's arrays
     (leading axis 1): the heightmaps, GDNet's argmax, the gate's figures, the grasp's pose,
     the viewpoint's pose."""
-    from vags_jax.env import grasp_pose
-    from vags_jax.perception import camera, heightmap
-    from vags_jax.policies import decision
-
     nets = _nets(cfg)
     color, height = heightmap.heightmaps(depth[None], rgb[None], pose[None], cam, cfg.workspace)
     out = {"color": color, "height": height}
@@ -283,9 +277,6 @@ def _global_program(params, depth, rgb, pose, *, cfg, cam, gdnet_only):
 @functools.partial(jax.jit, static_argnames=("cfg", "cam"))
 def _close_gdnet_program(params, color, height, depth, rgb, pose, *, cfg, cam):
     """The "gdnet" close-view planner on one close frame, fused into the global maps (1, H, W)."""
-    from vags_jax.env import grasp_pose
-    from vags_jax.policies import decision
-
     action, q, _, fused, seen = decision.fused_grasp(color, height, depth[None], rgb[None], pose[None], cam,
                                                      cfg.workspace, _nets(cfg).gdnet_q(params["gdnet"]))
     position, yaw = grasp_pose(cfg, fused, action[:, 1:], action[:, 0])
@@ -295,8 +286,6 @@ def _close_gdnet_program(params, color, height, depth, rgb, pose, *, cfg, cam):
 @functools.partial(jax.jit, static_argnames=("cfg", "cam"))
 def _close_ggcnn_program(params, depth, pose, *, cfg, cam):
     """The "ggcnn" close-view planner: GG-CNN's best grasp in one close depth image."""
-    from vags_jax.ggcnn.planner import predict_grasp
-
     g, img = predict_grasp(_nets(cfg).ggcnn, params["ggcnn"], depth[None], pose[None], cam, cfg.ggcnn,
                            cfg.grasp.depth_below_surface)
     return {"position": g.position, "yaw": g.yaw, "width": g.width, "quality": img.quality, "image_pixel": img.pixel}
@@ -309,9 +298,6 @@ def draw_decision(frame: Frame, result: dict, grasp_rgb=(255, 40, 40), view_rgb=
     """The frame's colour image with the decision drawn on it -> (h, w, 3) uint8: a grasp as a
     line along its closing axis, as long as the gripper's opening, through the grasp point; a
     viewpoint as a cross where the camera would look down."""
-    from vags_jax.benchmark.record import _Panel
-    from vags_jax.perception import camera
-
     panel = _Panel(np.asarray(frame.rgb, np.uint8), frame.rgb.shape[:2])
     if "grasp" in result:
         g = result["grasp"]

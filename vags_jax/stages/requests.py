@@ -209,8 +209,6 @@ def check_metrics_file(run_dir: str) -> None:
 def prepare_pipeline(args, only):
     """The whole pipeline (``only`` None) or stage 2 / 3 alone: config, --out, and what is left
     to train, checked before anything is built.  Raises ValueError with what to fix."""
-    from vags_jax import config as C
-
     overrides = C.parse_overrides(args.set)
     fresh = only is None and not args.resume
     if fresh:
