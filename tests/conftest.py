@@ -2,18 +2,43 @@
 
 JAX compile time dominates this suite on CI's 2 CPU cores.  A persistent compilation cache for
 the session lets identical programs built by different objects (e.g. train.py's first run and its
---resume) compile once.  It starts empty in every session (so CI times stay honest) unless
-VAGS_JAX_TEST_CACHE names a directory to keep between sessions.
+--resume) compile once; the worker processes of one pytest-xdist run share it.  It starts empty
+in every session (so CI times stay honest) unless VAGS_JAX_TEST_CACHE names a directory to keep
+between sessions.
 """
+import logging
 import os
 import tempfile
 
 import jax
 import pytest
 
-_cache = os.environ.get("VAGS_JAX_TEST_CACHE") or tempfile.mkdtemp(prefix="vags_jax_jit_")
+_run_id = os.environ.get("PYTEST_XDIST_TESTRUNUID")  # the same in every worker of one run
+_cache = (os.environ.get("VAGS_JAX_TEST_CACHE")
+          or (os.path.join(tempfile.gettempdir(), f"vags_jax_jit_{_run_id}") if _run_id
+              else tempfile.mkdtemp(prefix="vags_jax_jit_")))
 jax.config.update("jax_compilation_cache_dir", _cache)
 jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
+
+
+class _CompileLog(logging.Handler):
+    """With VAGS_JAX_TEST_COMPILE_LOG=FILE: one line per JAX trace / lowering / XLA compile,
+    "test<TAB>what", appended to FILE (by every worker) -- to see which tests compile what."""
+
+    def __init__(self, path):
+        super().__init__()
+        self.path = path
+
+    def emit(self, record):
+        msg = record.getMessage()
+        if msg.startswith("Finished"):
+            with open(self.path, "a") as f:
+                f.write(f"{os.environ.get('PYTEST_CURRENT_TEST', '-')}\t{msg}\n")
+
+
+if os.environ.get("VAGS_JAX_TEST_COMPILE_LOG"):
+    jax.config.update("jax_log_compiles", True)
+    logging.getLogger("jax").addHandler(_CompileLog(os.environ["VAGS_JAX_TEST_COMPILE_LOG"]))
 
 
 # The `tiny` preset, shrunk further for tests: 2 worlds, 1-2 objects, small replay.
