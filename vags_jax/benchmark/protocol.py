@@ -50,6 +50,7 @@ class _Carry:
     scores: jax.Array  # (B, T) float32, NaN where no attempt was made
     key: jax.Array
     t: jax.Array  # () int32
+    memory: Any = None  # the policy's memory over the round (``Policy.init_memory``), or None
 
 
 def check_groups(groups: Sequence[int], cfg: Config, rounds: int = 1) -> tuple[int, ...]:
@@ -88,7 +89,7 @@ class Evaluator:
         self._reset_worlds = jax.jit(self.env.step_reset_worlds)
         self._start = np.asarray(cfg.camera.global_position, np.float32)
 
-    def _rounds_impl(self, plan: Callable, params, key: jax.Array, s0: EnvState):
+    def _rounds_impl(self, policy: Policy, params, key: jax.Array, s0: EnvState):
         """Plays B fresh rounds to their end: key (2,), s0 from ``VagsEnv.reset`` -> RoundOutcomes
         of (B,) arrays.  (The reset is its own compiled program, the same as ``VagsEnv.reset``'s, so
         that a persistent compilation cache can share it with training.)"""
@@ -105,8 +106,12 @@ class Evaluator:
 
         def body(c: _Carry):
             key, k_act, k_obs = jax.random.split(c.key, 3)
-            attempt = plan(params, k_act, env, c.env)
+            if c.memory is None:
+                attempt = policy.plan(params, k_act, env, c.env)
+            else:
+                attempt = policy.plan(params, k_act, env, c.env, c.memory)
             s2, res = env.step_attempt(c.env, attempt, k_obs if noise else None)
+            memory = None if c.memory is None else policy.remember(c.memory, attempt, res.success)
             # Finished worlds keep their state: their outcome is ignored.
             keep = c.done
             s2 = where_worlds(keep, c.env, s2)
@@ -127,12 +132,13 @@ class Evaluator:
                 scores = scores.at[:, jnp.minimum(c.t, T - 1)].set(score)
             done = keep | env.round_over(s2, extra) | s2.sim.error
             return _Carry(env=s2, done=done, return_travel=ret, on_object=on_obj, viewpoints=views,
-                          scores=scores, key=key, t=c.t + 1)
+                          scores=scores, key=key, t=c.t + 1, memory=memory)
 
         zi = jnp.zeros((B,), jnp.int32)
         c0 = _Carry(env=s0, done=env.round_over(s0, extra) | s0.sim.error,
                     return_travel=jnp.zeros((B,), jnp.float32), on_object=zi, viewpoints=zi,
-                    scores=jnp.full((B, T), jnp.nan, jnp.float32), key=key, t=jnp.zeros((), jnp.int32))
+                    scores=jnp.full((B, T), jnp.nan, jnp.float32), key=key, t=jnp.zeros((), jnp.int32),
+                    memory=None if policy.init_memory is None else policy.init_memory(B))
         c = jax.lax.while_loop(cond, body, c0)
         s = c.env
         out = RoundOutcomes(
@@ -188,7 +194,7 @@ class Evaluator:
         self.env.prepare(state.n_worlds)
         fn = self._compiled.get(policy.plan)
         if fn is None:
-            fn = self._compiled[policy.plan] = jax.jit(lambda p, k, s: self._rounds_impl(policy.plan, p, k, s))
+            fn = self._compiled[policy.plan] = jax.jit(lambda p, k, s: self._rounds_impl(policy, p, k, s))
         return jax.tree.map(np.asarray, jax.device_get(fn(policy.params, key, state)))
 
 

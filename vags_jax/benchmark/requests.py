@@ -105,7 +105,7 @@ def _check_flags(args):
         policy = args.policy or ("vags" if run_has_vags(args.run) else "gdnet")
     else:
         policy = args.policy or ("gdnet" if args.run else "heuristic")
-    if policy in ("vags", "gdnet", "ggcnn", "ggcnn-close") and not args.run:
+    if policy in ("vags", "gdnet") + P.GGCNN_POLICIES and not args.run:
         raise ValueError(f"policy {policy} needs --run RUN_DIR (a run written by train.py)")
     vags_only = [f for f, v in (("--threshold", args.threshold is not None), ("--no-viewpoint", args.no_viewpoint),
                                 ("--threshold-sweep", args.threshold_sweep), ("--quantile-sweep", args.quantile_sweep),
@@ -172,7 +172,7 @@ def _run_config(args, policy):
             networks = rundir.load_vags(args.run, step=args.step)
             if networks.ggcnn is not None:
                 ggcnn_cfg = checkpoint.load_config(os.path.join(args.run, "ggcnn"))
-        if policy in ("ggcnn", "ggcnn-close"):  # no GG-CNN in the run, damaged files
+        if policy in P.GGCNN_POLICIES:  # no GG-CNN in the run, damaged files
             ggcnn_params, _ = load_ggcnn(args.run)
             ggcnn_cfg = checkpoint.load_config(ggcnn_dir(args.run))
         # A run that trained only GG-CNN has its config in RUN/ggcnn/.

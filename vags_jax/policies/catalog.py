@@ -26,6 +26,9 @@ an action ``(B, 3) int32 [rotation, row, col]`` on the global heightmaps (1 moti
   baseline).  ``ggcnn-close``: move the camera 25 cm above the ``highest`` cell, take a depth
   image there and grasp at GG-CNN's best grasp, 2 motions.  Both need a GG-CNN trained by
   ``train.py --stage ggcnn``.
+* ``mvp``: Multi-View Picking (``vags_jax.policies.mvp``): GG-CNN on a descending sequence of
+  views fused in a grid, 1 + the camera moves motions; its failure map is the policy's memory
+  over a round.  Needs a GG-CNN.
 """
 from __future__ import annotations
 
@@ -42,8 +45,11 @@ from vags_jax.ggcnn.planner import predict_grasp
 from vags_jax.nets import make_qnet
 from vags_jax.nets.ggcnn import GGCNN
 from vags_jax.policies.decision import VagsNets, gate_threshold
+from vags_jax.policies.mvp import MvpPlanner
 
-POLICIES = ("vags", "gdnet", "ggcnn", "ggcnn-close", "random", "highest", "heuristic")
+POLICIES = ("vags", "gdnet", "ggcnn", "ggcnn-close", "mvp", "random", "highest", "heuristic")
+# The policies that need a GG-CNN trained by ``train.py --stage ggcnn``.
+GGCNN_POLICIES = ("ggcnn", "ggcnn-close", "mvp")
 
 
 @dataclass(frozen=True)
@@ -57,12 +63,18 @@ class Policy:
     (network weights), or None.  ``act``: for policies that choose a heightmap action on the
     global view, ``(params, key, state) -> action (B, 3) int32 [rotation, row, col]`` (``plan``
     executes it, 1 motion); None for the others.
+
+    A policy with a memory over the attempts of a round (MVP's failure map) gives
+    ``init_memory(B) -> pytree`` and ``remember(memory, attempt, success (B,) bool) -> memory``
+    (run after every attempt); its ``plan`` then takes the memory as a fifth argument.
     """
 
     name: str
     plan: Callable
     params: Any = None
     act: Optional[Callable] = None
+    init_memory: Optional[Callable] = None
+    remember: Optional[Callable] = None
 
 
 def heightmap_policy(name: str, act: Callable, params: Any = None) -> Policy:
@@ -267,9 +279,12 @@ def make_policy(name: str, cfg: Config, gdnet_variables: Any = None, ggcnn_param
             raise ValueError("policy 'gdnet' needs trained GDNet variables: evaluate a run "
                              "directory (eval.py --run RUN) or pass gdnet_variables")
         return heightmap_policy("gdnet", gdnet_act(cfg), gdnet_variables)
-    if name in ("ggcnn", "ggcnn-close"):
+    if name in GGCNN_POLICIES:
         if ggcnn_params is None:
             raise ValueError(f"policy {name!r} needs trained GG-CNN parameters: evaluate a run with a GG-CNN "
                              f"(train.py --stage ggcnn --out RUN, then eval.py --run RUN) or pass ggcnn_params")
+        if name == "mvp":
+            mvp = MvpPlanner(cfg)
+            return Policy(name, mvp.plan, ggcnn_params, init_memory=mvp.init_memory, remember=mvp.remember)
         return Policy(name, ggcnn_plan(cfg, close=name == "ggcnn-close"), ggcnn_params)
     return heightmap_policy(name, {"random": random_act, "highest": highest_act, "heuristic": heuristic_act}[name](cfg))
