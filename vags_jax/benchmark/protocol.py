@@ -21,6 +21,7 @@ come from the seed and the whole batch.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import time
 import warnings
 from typing import Any, Callable, Optional, Sequence
@@ -164,11 +165,16 @@ class Evaluator:
         """Every group's ``rounds`` rounds in ONE batch of len(groups) * rounds worlds -> one
         RoundOutcomes of numpy (rounds,) per group.  Group k's scenes are those of
         ``run_group(policy, fold_in(PRNGKey(seed), k), k, rounds)``."""
+        return self.run_groups_and_scenes(policy, seed, groups, rounds)[0]
+
+    def run_groups_and_scenes(self, policy: Policy, seed: int, groups: Sequence[int], rounds: int):
+        """``run_groups`` -> (its outcomes, ``scenes_digest`` of the scenes the policy played)."""
         groups = check_groups(groups, self.cfg, rounds)
         s0, k_loop = self.reset_groups(seed, groups, rounds, rounds)
+        digest = scenes_digest(s0)
         out = self.play(policy, k_loop, s0)
         _warn_failures(out, f"{s0.n_worlds} rounds")
-        return [jax.tree.map(lambda x: x[i * rounds:(i + 1) * rounds], out) for i in range(len(groups))]
+        return [jax.tree.map(lambda x: x[i * rounds:(i + 1) * rounds], out) for i in range(len(groups))], digest
 
     def reset_groups(self, seed: int, groups: Sequence[int], rounds: int, first: int):
         """The first ``first`` of the ``rounds`` scenes of each group (``run_groups``'s scenes:
@@ -198,6 +204,15 @@ class Evaluator:
         return jax.tree.map(np.asarray, jax.device_get(fn(policy.params, key, state)))
 
 
+def scenes_digest(state: EnvState) -> str:
+    """A short hash of the starting scenes of B worlds (every body's pose, the colours, the
+    object counts): two methods played the same scenes when their digests are equal."""
+    h = hashlib.sha1()
+    for x in (state.sim.data.qpos, state.sim.geom_rgb, state.sim.n_objects):
+        h.update(np.ascontiguousarray(np.asarray(jax.device_get(x))).tobytes())
+    return h.hexdigest()[:16]
+
+
 def _warn_failures(out: RoundOutcomes, what: str) -> None:
     if out.error.any() or out.overflow.any():
         warnings.warn(
@@ -217,7 +232,8 @@ def evaluate(cfg: Config, policy: Policy, groups: Optional[Sequence[int]] = None
     Keys: ``policy``, ``seed``, ``rounds``, ``groups``, ``time_model``, ``groups_metrics``
     (list of ``summarize`` dicts with ``n_objects``, and ``wall_s`` when groups play one
     after the other), ``overall`` (pooled), ``outcomes`` ({k: RoundOutcomes.to_json()}),
-    ``wall_s``.  ``seed`` defaults to ``cfg.seed``.  ``batch_groups``: every group in one batch
+    ``wall_s``, ``scenes`` (``scenes_digest`` of the scenes played; None with ``batch_groups``
+    off).  ``seed`` defaults to ``cfg.seed``.  ``batch_groups``: every group in one batch
     (``Evaluator.run_groups``), else one batch per group (``run_group``).
     """
     groups = benchmark_groups(cfg) if groups is None else groups
@@ -231,7 +247,7 @@ def evaluate(cfg: Config, policy: Policy, groups: Optional[Sequence[int]] = None
     base = jax.random.PRNGKey(seed)
     per_group, parts, raw = [], [], {}
     t_all = time.time()
-    batched = ev.run_groups(policy, seed, groups, rounds) if batch_groups else None
+    batched, scenes = ev.run_groups_and_scenes(policy, seed, groups, rounds) if batch_groups else (None, None)
     for i, k in enumerate(groups):
         t0 = time.time()
         out = batched[i] if batched is not None else ev.run_group(policy, jax.random.fold_in(base, k), k, rounds)
@@ -250,5 +266,5 @@ def evaluate(cfg: Config, policy: Policy, groups: Optional[Sequence[int]] = None
         "max_attempts": f"2 * objects + {cfg.benchmark.max_attempts_extra}",
         "time_model": dataclasses.asdict(time_model),
         "groups_metrics": per_group, "overall": overall, "outcomes": raw,
-        "wall_s": round(time.time() - t_all, 2), "batch_groups": bool(batch_groups),
+        "wall_s": round(time.time() - t_all, 2), "batch_groups": bool(batch_groups), "scenes": scenes,
     }
