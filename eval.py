@@ -21,7 +21,8 @@ writes it as JSON + CSV (--out, default RUN/compare[_<objects>].json).
 Policies: vags (the default for a run with stage 2 or 3 networks: GDNet, VANet, GG-CNN and
 the run's decision threshold, or --threshold), gdnet (the default for a stage-1 run; --step
 picks a checkpoint), ggcnn and ggcnn-close (need --run with a GG-CNN from train.py --stage
-ggcnn), mvp (Multi-View Picking with the run's GG-CNN), random, highest, heuristic (see vags_jax/benchmark/protocol.py).  --no-viewpoint runs VAGS with
+ggcnn), mvp (Multi-View Picking with the run's GG-CNN), nbv (the next-best-view baseline of
+train.py --stage nbv), random, highest, heuristic (see vags_jax/benchmark/protocol.py).  --no-viewpoint runs VAGS with
 its GDNet alone (threshold -inf: the paper's "w/o VANet" ablation).  --threshold-sweep A:B:STEP
 evaluates VAGS at each absolute threshold (paper Fig. 6), --quantile-sweep A:B:STEP at the
 quantiles of the largest GDNet Q that VAGS saw at its decisions in the main run (our Q scale

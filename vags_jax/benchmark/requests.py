@@ -106,7 +106,7 @@ def _check_flags(args):
         policy = args.policy or ("vags" if run_has_vags(args.run) else "gdnet")
     else:
         policy = args.policy or ("gdnet" if args.run else "heuristic")
-    if policy in ("vags", "gdnet") + P.GGCNN_POLICIES and not args.run:
+    if policy in ("vags", "gdnet", "nbv") + P.GGCNN_POLICIES and not args.run:
         raise ValueError(f"policy {policy} needs --run RUN_DIR (a run written by train.py)")
     vags_only = [f for f, v in (("--threshold", args.threshold is not None), ("--no-viewpoint", args.no_viewpoint),
                                 ("--threshold-sweep", args.threshold_sweep), ("--quantile-sweep", args.quantile_sweep),
@@ -251,8 +251,9 @@ def _run_config(args, policy):
     networks = ggcnn_params = None
     ggcnn_cfg = None
     if args.run:
-        if policy == "vags":  # no stage 2/3 networks, no GG-CNN, damaged files
-            networks = rundir.load_vags(args.run, step=args.step)
+        if policy in ("vags", "nbv"):  # no stage 2/3 (nbv) networks, no GG-CNN, damaged files
+            networks = (rundir.load_vags(args.run, step=args.step) if policy == "vags"
+                        else rundir.load_nbv(args.run))
             if networks.ggcnn is not None:
                 ggcnn_cfg = checkpoint.load_config(os.path.join(args.run, "ggcnn"))
         if policy in P.GGCNN_POLICIES:  # no GG-CNN in the run, damaged files
@@ -286,7 +287,7 @@ def _eval_config(args, policy, run_cfg, ggcnn_cfg, overrides):
                            "scene.copies_per_shape": 1})
     cfg = C.replace(run_cfg, **scene_over, **overrides)
     scene.build_spec(cfg)  # the scene's own checks (shape names), in milliseconds
-    if policy in ("gdnet", "vags") and (cfg.net != run_cfg.net or cfg.workspace != run_cfg.workspace):
+    if policy in ("gdnet", "vags", "nbv") and (cfg.net != run_cfg.net or cfg.workspace != run_cfg.workspace):
         raise ValueError("--set must not change net.* or workspace.*: the trained GDNet needs the "
                          "network and heightmaps it was trained with")
     if ggcnn_cfg is not None and (
@@ -323,6 +324,8 @@ def prepare_eval(args) -> SimpleNamespace:
         _, variables, step = rundir.load_gdnet(args.run, args.step)
     if policy == "vags":  # the config's gate / close-view planner against the run's networks
         P.vags_params(networks, cfg)
+    if policy == "nbv":  # the close-view planner against the run's networks
+        P.nbv_params(networks, cfg)
     groups = E.check_groups(groups, cfg, rounds)
     time_model = M.MotionTimeModel.from_config(cfg)
     name = "vags-no-viewpoint" if args.no_viewpoint else policy

@@ -927,6 +927,9 @@ class Config:
     # Stage 2: VANet with GDNet frozen; stage 3: both, updated alternately (paper 3.2).
     stage2: Stage = field(default_factory=lambda: Stage(name="vanet", min_objects=1, max_objects=10))
     stage3: Stage = field(default_factory=lambda: Stage(name="alternate", min_objects=1, max_objects=10))
+    # The NBV baseline (train.py --stage nbv): a small viewpoint network trained as VANet in stage 2,
+    # but always moving.  Its max_objects is capped at scene.max_objects when the worlds are drawn.
+    nbv: Stage = field(default_factory=lambda: Stage(name="nbv", min_objects=1, max_objects=10))
     vags: Vags = field(default_factory=Vags)
     ggcnn: GGCNNConfig = field(default_factory=GGCNNConfig)
     ggcnn_data: GGCNNData = field(default_factory=GGCNNData)
@@ -942,9 +945,9 @@ class Config:
         _check(self.benchmark.groups is None or max(self.benchmark.groups) <= N,
                f"benchmark.groups {self.benchmark.groups} go above scene.max_objects ({N}); the scene "
                f"holds at most {N} objects")
-        for name in ("stage1", "stage2", "stage3"):
+        for name in ("stage1", "stage2", "stage3", "nbv"):
             st = getattr(self, name)
-            _check(st.max_objects <= self.scene.max_objects,
+            _check(st.max_objects <= self.scene.max_objects or name == "nbv",  # nbv: capped when drawn
                    f"{name}.max_objects ({st.max_objects}) exceeds scene.max_objects ({self.scene.max_objects})")
             _check(st.learning_starts <= self.replay.capacity,
                    f"{name}.learning_starts ({st.learning_starts}) exceeds replay.capacity "
@@ -965,7 +968,7 @@ class Config:
                f"{replay_bytes / 2**30:,.0f} GiB ({REPLAY_BYTES_PER_CELL} bytes per cell), more than "
                f"{MAX_DEVICE_BYTES // 2**30} GiB; lower replay.capacity (at most "
                f"{MAX_DEVICE_BYTES // (REPLAY_BYTES_PER_CELL * px * px):,}) or workspace.heightmap_px")
-        for name in ("stage1", "stage2", "stage3"):
+        for name in ("stage1", "stage2", "stage3", "nbv"):
             n = getattr(self, name).n_worlds
             q_bytes = 2 * n * self.net.n_rotations * px * px
             _check(q_bytes <= MAX_DEVICE_BYTES,
