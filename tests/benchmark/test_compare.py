@@ -53,32 +53,44 @@ def test_table1_json_and_csv_from_hand_made_reports(tmp_path):
 
 
 def test_compare_plays_every_method_on_the_same_scenes(tmp_path, capsys):
-    sets = [f"{k}={v}" for k, v in {**TINY_TEST_OVERRIDES, "benchmark.max_attempts_extra": 1}.items()]
+    """Two methods, the heuristic by name (with --run's config) and as RUN:heuristic: one
+    compiled program (the config of tests/benchmark/test_evaluate.py's tiny run, so a session's
+    compilation cache serves it), and identical rounds, which only the same scenes and seeds give."""
+    cfg = C.replace(C.tiny(), **TINY_TEST_OVERRIDES, **{"benchmark.max_attempts_extra": 1})
+    run = tmp_path / "run"
+    run.mkdir()
+    checkpoint.save_config(str(run), cfg)
     out = str(tmp_path / "cmp" / "table1.json")
-    argv = ["--config", "tiny", "--compare", "heuristic", "random", "--groups", "1,2", "--rounds", "2",
-            "--out", out, "--set"] + sets
+    argv = ["--run", str(run), "--compare", "heuristic", f"{run}:heuristic", "--groups", "1,2", "--rounds", "2",
+            "--out", out]
     assert eval_cli.main(argv) == 0
     table = capsys.readouterr().out
-    assert "| heuristic | 4 |" in table and "| random | 4 |" in table
+    second = f"heuristic ({run}:heuristic)"
+    assert "| heuristic | 4 |" in table and f"| {second} | 4 |" in table
     with open(out) as f:
         data = json.load(f)
     reps = {m["label"]: m["report"] for m in data["methods"]}
-    assert list(reps) == ["heuristic", "random"]
-    assert reps["heuristic"]["scenes"] is not None and reps["heuristic"]["scenes"] == reps["random"]["scenes"]
+    assert list(reps) == ["heuristic", second]
+    assert reps["heuristic"]["scenes"] is not None and reps["heuristic"]["scenes"] == reps[second]["scenes"]
+    assert json.dumps(reps["heuristic"]["outcomes"]) == json.dumps(reps[second]["outcomes"])
     for rep in reps.values():
-        assert rep["seed"] == C.tiny().seed and rep["groups"] == [1, 2] and rep["rounds"] == 2
+        assert rep["seed"] == cfg.seed and rep["groups"] == [1, 2] and rep["rounds"] == 2
         assert [json.dumps(rep["outcomes"][k]["n_objects"]) for k in ("1", "2")] == ["[1, 1]", "[2, 2]"]
+    assert [r["method"] for r in data["table1"]] == ["heuristic", second]
     with open(out.replace(".json", ".csv")) as f:
         rows = list(csv.DictReader(f))
     assert [(r["method"], r["n_objects"]) for r in rows] == [
         ("heuristic", "1"), ("heuristic", "2"), ("heuristic", "overall"),
-        ("random", "1"), ("random", "2"), ("random", "overall")]
+        (second, "1"), (second, "2"), (second, "overall")]
+    o = reps["heuristic"]["overall"]
+    lo, hi = M.wilson_interval(o["successes"], o["attempts"])
+    assert float(rows[2]["success_low"]) == pytest.approx(lo) and float(rows[2]["success_high"]) == pytest.approx(hi)
     # a saved report joins a later table (the driver's pieces); one of other rounds is refused
     one = str(tmp_path / "heuristic.json")
     with open(one, "w") as f:
         json.dump(reps["heuristic"], f)
     assert eval_cli.main(["--compare", one, "--out", str(tmp_path / "again.json")]) == 0
-    bad = dict(reps["random"], rounds=3)
+    bad = dict(reps[second], rounds=3)
     with open(tmp_path / "r3.json", "w") as f:
         json.dump(bad, f)
     assert eval_cli.main(["--compare", one, str(tmp_path / "r3.json")]) == 1

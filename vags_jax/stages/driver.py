@@ -330,7 +330,7 @@ def run_stage(cfg, args, name: str, done: int, h: pipeline.Handover, deadline, p
     if end_of_segment(args, name, done, it, t0, status):
         return 1, None
     summary = {"stage": name, "iterations": it, "grasp_attempts": grasps, "recent_success_rate": recent}
-    if name != "stage1":
+    if name not in ("stage1", "nbv"):  # NBV's is +inf: it always moves
         summary["threshold"] = float(state.threshold)
     summary.update(wall_s=round(time.time() - t0, 1), out=out_dir)
     return summary, (fns.output(state, h) if it >= st.iterations else h)
@@ -424,7 +424,8 @@ def _pipeline_locked(args, only, plan, programs: Programs) -> int:
         summaries.append(summary)
         if summary.get("iterations", want) < want:  # stopped by --max-minutes
             break
-    status = {n: f"{rundir.progress(args.out, n)}/{rundir.total(cfg, n)}" for n in rundir.ORDER
+    shown = rundir.ORDER + tuple(n for n in rundir.BASELINES if n == only or rundir.progress(args.out, n))
+    status = {n: f"{rundir.progress(args.out, n)}/{rundir.total(cfg, n)}" for n in shown
               if rundir.total(cfg, n) or rundir.progress(args.out, n)}
     print(json.dumps({"stages": summaries, "progress": status, "wall_s": round(time.time() - t0, 1),
                       "out": args.out}))
