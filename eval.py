@@ -169,7 +169,6 @@ def main(argv=None) -> int:
     networks, step, out, sweep_out, compare = plan.networks, plan.step, plan.out, plan.sweep_out, plan.compare
     sweep_abs, sweep_q, time_model = plan.sweep_abs, plan.sweep_q, plan.time_model
     log = lambda s: print(s, file=sys.stderr, flush=True)  # noqa: E731
-    threshold = -math.inf if args.no_viewpoint else args.threshold
     source = f" ({args.run}, checkpoint {step})" if step is not None else (
         f" ({args.run}, {networks.source})" if networks is not None else "")
     log(f"evaluating {name}{source}: groups {groups}, {rounds} rounds each, impl={cfg.sim.impl}, "
