@@ -14,6 +14,8 @@
 #             and Fig. 7 (OUT/<objects>/fig7.png); the compare refuses reports of other scenes
 # Wall clocks: RUN/timings.jsonl (training, copied to OUT) and OUT/timings.txt (every command).
 #     RUN=runs/vags bench/table1_h100.sh OUT       (again, until it prints "all done")
+# In device calls keep RUN and OUT under runs/ (kept on the machine while it stays warm) and copy
+# OUT back each time:  RUN=runs/table1 bench/table1_h100.sh runs/table1_out; cp -r runs/table1_out "$OUT"/
 # A CPU dry run: CONFIG=tiny TRAIN_SET="stage1.iterations=2 stage2.iterations=2 stage3.iterations=2
 #   nbv.iterations=2 ggcnn.train_steps=2" EVAL_ARGS="--groups 1-2 --rounds 2" RUN=/tmp/t1 bench/table1_h100.sh /tmp/t1_out
 set -uo pipefail
