@@ -11,11 +11,18 @@
     python eval.py --run runs/gpu --no-viewpoint        # VAGS without VANet: GDNet alone
     python eval.py --run runs/gpu --threshold-sweep 1.70:1.80:0.01 --quantile-sweep 0:1:0.1 --plot runs/gpu/fig.png
     python eval.py --run runs/gpu --record runs/gpu/pictures --groups 3,10
+    python eval.py --run runs/gpu --policy mvp                   # Multi-View Picking (GG-CNN of the run)
+    python eval.py --run runs/gpu --compare vags ggcnn mvp nbv --plot runs/gpu/fig7.png   # Table 1
+
+--compare METHOD ...: every method on the same scenes and seed in one environment; prints Table 1
+(grasp success and clearing with 95 % Wilson intervals, motion number, picks per hour) and
+writes it as JSON + CSV (--out, default RUN/compare[_<objects>].json).
 
 Policies: vags (the default for a run with stage 2 or 3 networks: GDNet, VANet, GG-CNN and
 the run's decision threshold, or --threshold), gdnet (the default for a stage-1 run; --step
 picks a checkpoint), ggcnn and ggcnn-close (need --run with a GG-CNN from train.py --stage
-ggcnn), random, highest, heuristic (see vags_jax/benchmark/protocol.py).  --no-viewpoint runs VAGS with
+ggcnn), mvp (Multi-View Picking with the run's GG-CNN), nbv (the next-best-view baseline of
+train.py --stage nbv), random, highest, heuristic (see vags_jax/benchmark/protocol.py).  --no-viewpoint runs VAGS with
 its GDNet alone (threshold -inf: the paper's "w/o VANet" ablation).  --threshold-sweep A:B:STEP
 evaluates VAGS at each absolute threshold (paper Fig. 6), --quantile-sweep A:B:STEP at the
 quantiles of the largest GDNet Q that VAGS saw at its decisions in the main run (our Q scale
@@ -24,8 +31,8 @@ model of picks per hour come from the config's benchmark section (--set benchmar
 (or the --config preset) with --set overrides applied; the scene must hold the largest group
 (scene.max_objects).  Prints a Markdown table and writes the full report as JSON to --out, or
 to RUN/eval_<policy>[_step<N>].json, with a CSV beside it (one row per group and overall).
---plot PATH draws success and clearing against the number of objects (paper Fig. 7) for this
-report and the reports given with --compare (needs matplotlib: pip install 'vags_jax[plot]');
+--plot PATH draws success and clearing against the number of objects (paper Fig. 7), one line per
+method (needs matplotlib: pip install 'vags_jax[plot]');
 with a sweep, the sweep's plot goes beside it (PATH stem + _sweep.png).  --record DIR writes
 pictures of the first --record-rounds rounds of each group (vags only).
 
@@ -44,6 +51,7 @@ import jax
 import numpy as np
 
 from vags_jax import cli
+from vags_jax.benchmark import compare as CMP
 from vags_jax.benchmark import metrics as M
 from vags_jax.benchmark import protocol as E
 from vags_jax.benchmark import reports, requests, sweep
@@ -70,8 +78,10 @@ def parse_args(argv=None):
                         "main run's decisions (e.g. 0:1:0.1)")
     p.add_argument("--plot", default=None, metavar="PATH.png",
                    help="success and clearing vs objects (paper Fig. 7); needs matplotlib")
-    p.add_argument("--compare", nargs="*", default=[], metavar="REPORT.json",
-                   help="--plot: other eval.py reports drawn beside this one")
+    p.add_argument("--compare", nargs="*", default=[], metavar="METHOD",
+                   help="Table 1: play every METHOD on the same scenes and seed (and --policy first, when given); "
+                        "a METHOD is a policy name (networks from --run), a run directory (its default policy), "
+                        "RUN:policy, or a report .json of eval.py (same seed, groups and rounds)")
     p.add_argument("--record", default=None, metavar="DIR",
                    help="vags: pictures of the first --record-rounds rounds of each group")
     p.add_argument("--record-rounds", type=cli.int_in(1, 1000), default=1,
@@ -103,8 +113,54 @@ def parse_args(argv=None):
     return p.parse_args(argv)
 
 
+def policy_of(plan, args):
+    """The policy of a checked plan (``requests.prepare_eval``), named as in its report."""
+    threshold = -math.inf if args.no_viewpoint else args.threshold
+    pol = P.make_policy(plan.policy, plan.cfg, plan.variables, plan.ggcnn_params, plan.networks, threshold)
+    return dataclasses.replace(pol, name=plan.name)
+
+
+def main_compare(args) -> int:
+    """--compare: every method on the same scenes and seed; Table 1, JSON + CSV, Fig. 7."""
+    try:
+        plan = requests.prepare_compare(args)  # every method checked, before anything is compiled
+    except ValueError as e:
+        return cli.fail(PROG, e)
+    log = lambda s: print(s, file=sys.stderr, flush=True)  # noqa: E731
+    ev, results = None, {}
+    for label, mplan, saved in plan.methods:
+        if saved is not None:
+            results[label] = saved
+            continue
+        log(f"evaluating {label}" + (f" ({mplan.run})" if mplan.run else "") + f": groups {plan.groups}, "
+            f"{plan.rounds} rounds each, seed {plan.seed}, devices={jax.devices()}")
+        ev = ev if ev is not None else E.Evaluator(plan.cfg)  # one environment: the same scenes for all
+        pol = policy_of(mplan, args)
+        report = E.evaluate(plan.cfg, pol, plan.groups, plan.rounds, plan.seed, plan.time_model, ev, log=log)
+        report["run"] = mplan.run
+        if mplan.policy == "vags":
+            report["threshold"] = float(np.asarray(pol.params["threshold"]))
+        results[label] = report
+    try:
+        CMP.check_same_scenes(results)
+    except ValueError as e:
+        print(f"{PROG}: error: {e}", file=sys.stderr)
+        return 1
+    print(CMP.table1(results))
+    if plan.out:
+        csv_path = CMP.write_comparison(results, plan.out, {"seed": plan.seed, "groups": plan.groups,
+                                                           "rounds": plan.rounds})
+        log(f"wrote {plan.out} and {csv_path}")
+    if args.plot:
+        reports.plot_by_objects(results, args.plot)
+        log(f"wrote {args.plot}")
+    return 0
+
+
 def main(argv=None) -> int:
     args = parse_args(argv)  # bad flags: one line, exit code 2
+    if args.compare:
+        return main_compare(args)
     try:
         plan = requests.prepare_eval(args)  # every input, before anything is compiled
     except ValueError as e:  # includes CheckpointError and config validation
@@ -113,15 +169,12 @@ def main(argv=None) -> int:
     networks, step, out, sweep_out, compare = plan.networks, plan.step, plan.out, plan.sweep_out, plan.compare
     sweep_abs, sweep_q, time_model = plan.sweep_abs, plan.sweep_q, plan.time_model
     log = lambda s: print(s, file=sys.stderr, flush=True)  # noqa: E731
-    threshold = -math.inf if args.no_viewpoint else args.threshold
     source = f" ({args.run}, checkpoint {step})" if step is not None else (
         f" ({args.run}, {networks.source})" if networks is not None else "")
     log(f"evaluating {name}{source}: groups {groups}, {rounds} rounds each, impl={cfg.sim.impl}, "
         f"devices={jax.devices()}")
     ev = E.Evaluator(cfg)
-    pol = P.make_policy(policy, cfg, plan.variables, plan.ggcnn_params, networks, threshold)
-    if policy == "vags":
-        pol = dataclasses.replace(pol, name=name)
+    pol = policy_of(plan, args)
     extra = {"run": args.run, "checkpoint_step": step}
     overall = {}
     for seed in plan.seeds:  # one Evaluator: every seed reuses the programs the first one compiled

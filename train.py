@@ -11,7 +11,8 @@ one stage.
     python train.py --out runs/s1 --stage stage2           # stage 2 of an existing run
     python train.py --config gpu --stage gdnet --set exploration.daes=false --out runs/no_daes
 
-Stages (--stage): ggcnn; stage1 (alias gdnet); stage2 (alias vanet); stage3 (alias alternate).
+Stages (--stage): ggcnn; stage1 (alias gdnet); stage2 (alias vanet); stage3 (alias alternate); nbv
+(the NBV baseline of eval.py --policy nbv, into --out/nbv; never part of the whole pipeline).
 Writes into --out: config.json; stage 1's metrics.jsonl and checkpoints/ (orbax); ggcnn/
 (checkpoints/, config.json, metrics.json); stage2/ and stage3/ (checkpoints/, metrics.jsonl);
 timings.jsonl (wall-clock of every stage segment).  Every metrics row names its stage.
@@ -39,7 +40,7 @@ from vags_jax import cli
 from vags_jax.stages import driver
 
 PROG = "train.py"
-STAGES = ("ggcnn", "stage1", "stage2", "stage3", "gdnet", "vanet", "alternate")
+STAGES = ("ggcnn", "stage1", "stage2", "stage3", "gdnet", "vanet", "alternate", "nbv")
 
 
 def parse_args(argv=None):
@@ -52,7 +53,9 @@ def parse_args(argv=None):
                    help="one stage only: ggcnn (GG-CNN, into --out/ggcnn), stage1 = gdnet (GDNet), "
                         "stage2 = vanet (VANet, GDNet frozen; needs stage 1 in --out, and GG-CNN when "
                         "vags.local_planner=ggcnn), "
-                        "stage3 = alternate (both; needs stage 2).  Default: the whole pipeline")
+                        "stage3 = alternate (both; needs stage 2); nbv (the NBV baseline's viewpoint network, "
+                        "trained as VANet but always moving; needs stage 1, and GG-CNN when "
+                        "vags.local_planner=ggcnn).  Default: the whole pipeline (without nbv)")
     p.add_argument("--data-dir", default=None,
                    help="GG-CNN's labelled views are cached here (default ~/.cache/vags_jax/ggcnn); a run "
                         "with the same config reuses them")

@@ -129,6 +129,17 @@ class RoundOutcomes:
                 if getattr(self, f.name) is not None}
 
 
+def wilson_interval(k: int, n: int, z: float = 1.959964) -> Optional[tuple[float, float]]:
+    """The Wilson score interval (95 % for the default z) of a rate of k successes in n trials
+    -> (low, high), or None when n is 0."""
+    if n <= 0:
+        return None
+    p = k / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z / (1 + z * z / n) * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
+    return float(max(0.0, centre - half)), float(min(1.0, centre + half))
+
+
 def _ratio(num: float, den: float) -> Optional[float]:
     return float(num) / float(den) if den > 0 else None
 

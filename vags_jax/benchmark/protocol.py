@@ -21,6 +21,7 @@ come from the seed and the whole batch.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import time
 import warnings
 from typing import Any, Callable, Optional, Sequence
@@ -50,6 +51,7 @@ class _Carry:
     scores: jax.Array  # (B, T) float32, NaN where no attempt was made
     key: jax.Array
     t: jax.Array  # () int32
+    memory: Any = None  # the policy's memory over the round (``Policy.init_memory``), or None
 
 
 def check_groups(groups: Sequence[int], cfg: Config, rounds: int = 1) -> tuple[int, ...]:
@@ -88,7 +90,7 @@ class Evaluator:
         self._reset_worlds = jax.jit(self.env.step_reset_worlds)
         self._start = np.asarray(cfg.camera.global_position, np.float32)
 
-    def _rounds_impl(self, plan: Callable, params, key: jax.Array, s0: EnvState):
+    def _rounds_impl(self, policy: Policy, params, key: jax.Array, s0: EnvState):
         """Plays B fresh rounds to their end: key (2,), s0 from ``VagsEnv.reset`` -> RoundOutcomes
         of (B,) arrays.  (The reset is its own compiled program, the same as ``VagsEnv.reset``'s, so
         that a persistent compilation cache can share it with training.)"""
@@ -105,8 +107,12 @@ class Evaluator:
 
         def body(c: _Carry):
             key, k_act, k_obs = jax.random.split(c.key, 3)
-            attempt = plan(params, k_act, env, c.env)
+            if c.memory is None:
+                attempt = policy.plan(params, k_act, env, c.env)
+            else:
+                attempt = policy.plan(params, k_act, env, c.env, c.memory)
             s2, res = env.step_attempt(c.env, attempt, k_obs if noise else None)
+            memory = None if c.memory is None else policy.remember(c.memory, attempt, res.success)
             # Finished worlds keep their state: their outcome is ignored.
             keep = c.done
             s2 = where_worlds(keep, c.env, s2)
@@ -127,12 +133,13 @@ class Evaluator:
                 scores = scores.at[:, jnp.minimum(c.t, T - 1)].set(score)
             done = keep | env.round_over(s2, extra) | s2.sim.error
             return _Carry(env=s2, done=done, return_travel=ret, on_object=on_obj, viewpoints=views,
-                          scores=scores, key=key, t=c.t + 1)
+                          scores=scores, key=key, t=c.t + 1, memory=memory)
 
         zi = jnp.zeros((B,), jnp.int32)
         c0 = _Carry(env=s0, done=env.round_over(s0, extra) | s0.sim.error,
                     return_travel=jnp.zeros((B,), jnp.float32), on_object=zi, viewpoints=zi,
-                    scores=jnp.full((B, T), jnp.nan, jnp.float32), key=key, t=jnp.zeros((), jnp.int32))
+                    scores=jnp.full((B, T), jnp.nan, jnp.float32), key=key, t=jnp.zeros((), jnp.int32),
+                    memory=None if policy.init_memory is None else policy.init_memory(B))
         c = jax.lax.while_loop(cond, body, c0)
         s = c.env
         out = RoundOutcomes(
@@ -158,11 +165,16 @@ class Evaluator:
         """Every group's ``rounds`` rounds in ONE batch of len(groups) * rounds worlds -> one
         RoundOutcomes of numpy (rounds,) per group.  Group k's scenes are those of
         ``run_group(policy, fold_in(PRNGKey(seed), k), k, rounds)``."""
+        return self.run_groups_and_scenes(policy, seed, groups, rounds)[0]
+
+    def run_groups_and_scenes(self, policy: Policy, seed: int, groups: Sequence[int], rounds: int):
+        """``run_groups`` -> (its outcomes, ``scenes_digest`` of the scenes the policy played)."""
         groups = check_groups(groups, self.cfg, rounds)
         s0, k_loop = self.reset_groups(seed, groups, rounds, rounds)
+        digest = scenes_digest(s0)
         out = self.play(policy, k_loop, s0)
         _warn_failures(out, f"{s0.n_worlds} rounds")
-        return [jax.tree.map(lambda x: x[i * rounds:(i + 1) * rounds], out) for i in range(len(groups))]
+        return [jax.tree.map(lambda x: x[i * rounds:(i + 1) * rounds], out) for i in range(len(groups))], digest
 
     def reset_groups(self, seed: int, groups: Sequence[int], rounds: int, first: int):
         """The first ``first`` of the ``rounds`` scenes of each group (``run_groups``'s scenes:
@@ -188,8 +200,17 @@ class Evaluator:
         self.env.prepare(state.n_worlds)
         fn = self._compiled.get(policy.plan)
         if fn is None:
-            fn = self._compiled[policy.plan] = jax.jit(lambda p, k, s: self._rounds_impl(policy.plan, p, k, s))
+            fn = self._compiled[policy.plan] = jax.jit(lambda p, k, s: self._rounds_impl(policy, p, k, s))
         return jax.tree.map(np.asarray, jax.device_get(fn(policy.params, key, state)))
+
+
+def scenes_digest(state: EnvState) -> str:
+    """A short hash of the starting scenes of B worlds (every body's pose, the colours, the
+    object counts): two methods played the same scenes when their digests are equal."""
+    h = hashlib.sha1()
+    for x in (state.sim.data.qpos, state.sim.geom_rgb, state.sim.n_objects):
+        h.update(np.ascontiguousarray(np.asarray(jax.device_get(x))).tobytes())
+    return h.hexdigest()[:16]
 
 
 def _warn_failures(out: RoundOutcomes, what: str) -> None:
@@ -211,7 +232,8 @@ def evaluate(cfg: Config, policy: Policy, groups: Optional[Sequence[int]] = None
     Keys: ``policy``, ``seed``, ``rounds``, ``groups``, ``time_model``, ``groups_metrics``
     (list of ``summarize`` dicts with ``n_objects``, and ``wall_s`` when groups play one
     after the other), ``overall`` (pooled), ``outcomes`` ({k: RoundOutcomes.to_json()}),
-    ``wall_s``.  ``seed`` defaults to ``cfg.seed``.  ``batch_groups``: every group in one batch
+    ``wall_s``, ``scenes`` (``scenes_digest`` of the scenes played; None with ``batch_groups``
+    off).  ``seed`` defaults to ``cfg.seed``.  ``batch_groups``: every group in one batch
     (``Evaluator.run_groups``), else one batch per group (``run_group``).
     """
     groups = benchmark_groups(cfg) if groups is None else groups
@@ -225,7 +247,7 @@ def evaluate(cfg: Config, policy: Policy, groups: Optional[Sequence[int]] = None
     base = jax.random.PRNGKey(seed)
     per_group, parts, raw = [], [], {}
     t_all = time.time()
-    batched = ev.run_groups(policy, seed, groups, rounds) if batch_groups else None
+    batched, scenes = ev.run_groups_and_scenes(policy, seed, groups, rounds) if batch_groups else (None, None)
     for i, k in enumerate(groups):
         t0 = time.time()
         out = batched[i] if batched is not None else ev.run_group(policy, jax.random.fold_in(base, k), k, rounds)
@@ -244,5 +266,5 @@ def evaluate(cfg: Config, policy: Policy, groups: Optional[Sequence[int]] = None
         "max_attempts": f"2 * objects + {cfg.benchmark.max_attempts_extra}",
         "time_model": dataclasses.asdict(time_model),
         "groups_metrics": per_group, "overall": overall, "outcomes": raw,
-        "wall_s": round(time.time() - t_all, 2), "batch_groups": bool(batch_groups),
+        "wall_s": round(time.time() - t_all, 2), "batch_groups": bool(batch_groups), "scenes": scenes,
     }

@@ -7,6 +7,7 @@ paths, sweeps), or raises ``ValueError`` (``CheckpointError``) with one line say
 """
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import os
@@ -105,7 +106,7 @@ def _check_flags(args):
         policy = args.policy or ("vags" if run_has_vags(args.run) else "gdnet")
     else:
         policy = args.policy or ("gdnet" if args.run else "heuristic")
-    if policy in ("vags", "gdnet", "ggcnn", "ggcnn-close") and not args.run:
+    if policy in ("vags", "gdnet", "nbv") + P.GGCNN_POLICIES and not args.run:
         raise ValueError(f"policy {policy} needs --run RUN_DIR (a run written by train.py)")
     vags_only = [f for f, v in (("--threshold", args.threshold is not None), ("--no-viewpoint", args.no_viewpoint),
                                 ("--threshold-sweep", args.threshold_sweep), ("--quantile-sweep", args.quantile_sweep),
@@ -127,18 +128,7 @@ def _check_flags(args):
         raise ValueError(f"--threshold must be a finite number, got {args.threshold}")
     sweep_abs = parse_sweep(args.threshold_sweep, "--threshold-sweep") if args.threshold_sweep else []
     sweep_q = parse_sweep(args.quantile_sweep, "--quantile-sweep", 0.0, 1.0) if args.quantile_sweep else []
-    if args.compare and not args.plot:
-        raise ValueError("--compare adds reports to --plot: give --plot PATH.png")
-    compare = {}
-    for path in args.compare:
-        try:
-            with open(path, encoding="utf-8") as f:
-                rep_ = json.load(f)
-            label = rep_["policy"]
-            rep_["groups_metrics"], rep_["overall"]  # noqa: B018 (the keys the plot reads)
-        except (OSError, ValueError, KeyError, TypeError) as e:
-            raise ValueError(f"--compare {path}: not a report written by eval.py ({cli.first_line(e)})") from None
-        compare[label if label not in compare else f"{label} ({path})"] = rep_
+    compare = {}  # --compare is its own mode (prepare_compare); here it is always empty
     if args.plot:
         cli.check_writable_file(args.plot, "--plot")
         reports.check_plot_available()
@@ -162,17 +152,111 @@ def _check_flags(args):
     return policy, seeds, sweep_abs, sweep_q, compare
 
 
+def load_report(path: str) -> dict:
+    """A report ``eval.py`` wrote (JSON) -> its dict; ValueError naming the file otherwise."""
+    try:
+        with open(path, encoding="utf-8") as f:
+            rep = json.load(f)
+        rep["policy"], rep["groups_metrics"], rep["overall"]  # noqa: B018 (the keys a table reads)
+    except (OSError, ValueError, KeyError, TypeError) as e:
+        raise ValueError(f"--compare {path}: not a report written by eval.py ({cli.first_line(e)})") from None
+    return rep
+
+
+# The config sections that decide the scenes and the robot-time model: every method of one
+# comparison must have the same.
+SCENE_SECTIONS = ("workspace", "scene", "sim", "grasp", "camera", "benchmark")
+
+
+def _split_item(item: str, default_run):
+    """A --compare item that is not a report -> (run directory or None, policy or None)."""
+    if os.path.isdir(item):
+        return item, None
+    if item in P.POLICIES:
+        return default_run, item
+    if ":" in item:
+        run, policy = item.rsplit(":", 1)
+        if not os.path.isdir(run):
+            raise ValueError(f"--compare {item}: run directory {run!r} does not exist")
+        return run, policy
+    raise ValueError(f"--compare {item!r}: not a policy ({', '.join(P.POLICIES)}), a run directory, RUN:policy "
+                     f"or a report .json written by eval.py")
+
+
+def prepare_compare(args) -> SimpleNamespace:
+    """``eval.py --compare ITEM ...`` (and ``--policy``, the first method when given): every
+    method checked as a single ``eval.py`` call would be (``prepare_eval``), and all of them
+    against each other (one scene config, one seed) before anything is compiled -> plan:
+    methods [(label, plan or None, saved report or None)], cfg, groups, rounds, seed,
+    time_model, out."""
+    given = [f for f, v in (("--seeds", args.seeds), ("--threshold-sweep", args.threshold_sweep),
+                            ("--quantile-sweep", args.quantile_sweep), ("--record", args.record)) if v]
+    if given:
+        raise ValueError(f"--compare plays one table of several methods; drop {given[0]}")
+    if args.plot:
+        cli.check_writable_file(args.plot, "--plot")
+        reports.check_plot_available()
+    if args.out is not None:
+        cli.check_writable_file(args.out, "--out")
+    items = ([args.policy] if args.policy else []) + list(args.compare)
+    methods, labels = [], set()
+    for item in items:
+        if item.endswith(".json"):
+            rep, plan = load_report(item), None
+            name = rep["policy"]
+        else:
+            run, policy = _split_item(item, args.run)
+            sub = argparse.Namespace(**{**vars(args), "run": run, "policy": policy, "compare": [], "plot": None,
+                                        "out": None, "config": None if run else args.config})
+            try:
+                plan = prepare_eval(sub)
+            except ValueError as e:
+                raise ValueError(f"--compare {item}: {e}") from None
+            plan.run, rep, name = run, None, plan.name
+        label = name if name not in labels else f"{name} ({item})"
+        labels.add(label)
+        methods.append((label, plan, rep))
+    played = [p for _, p, _ in methods if p is not None]
+    cfg = played[0].cfg if played else None
+    for label, p, _ in methods:
+        if p is None:
+            continue
+        bad = [s for s in SCENE_SECTIONS if getattr(p.cfg, s) != getattr(cfg, s)]
+        if bad or p.groups != played[0].groups or p.rounds != played[0].rounds:
+            what = f"its config's {bad[0]} section" if bad else "its groups or rounds"
+            raise ValueError(f"--compare: {label} would play other scenes than {methods[0][0]} ({what} differ); "
+                             f"compare runs trained on the same scenes, or evaluate them apart")
+    out = args.out
+    if out is None and args.run and played:
+        tag = "".join(f"_{t}" for t in (args.objects, args.scenes) if t)
+        out = os.path.join(args.run, f"compare{tag}.json")
+        cli.check_writable_file(out, "--run")
+    seed = None if not played else (cfg.seed if args.seed is None else args.seed)
+    plan = SimpleNamespace(methods=methods, cfg=cfg, seed=seed, out=out,
+                           groups=played[0].groups if played else None, rounds=played[0].rounds if played else None,
+                           time_model=played[0].time_model if played else None)
+    saved = {label: rep for label, _, rep in methods if rep is not None}
+    if saved and played:  # a saved report joins only a table of the same scenes
+        for label, rep in saved.items():
+            for key, want in (("seed", seed), ("groups", list(plan.groups)), ("rounds", plan.rounds)):
+                if rep.get(key) != want:
+                    raise ValueError(f"--compare: the report of {label} played {key} {rep.get(key)}, this table "
+                                     f"{want}: a table needs every method on the same scenes")
+    return plan
+
+
 def _run_config(args, policy):
     """The run's (or preset's) config and what the policy loads from the run -> (run_cfg,
     VAGS networks or None, GG-CNN params or None, GG-CNN's config or None)."""
     networks = ggcnn_params = None
     ggcnn_cfg = None
     if args.run:
-        if policy == "vags":  # no stage 2/3 networks, no GG-CNN, damaged files
-            networks = rundir.load_vags(args.run, step=args.step)
+        if policy in ("vags", "nbv"):  # no stage 2/3 (nbv) networks, no GG-CNN, damaged files
+            networks = (rundir.load_vags(args.run, step=args.step) if policy == "vags"
+                        else rundir.load_nbv(args.run))
             if networks.ggcnn is not None:
                 ggcnn_cfg = checkpoint.load_config(os.path.join(args.run, "ggcnn"))
-        if policy in ("ggcnn", "ggcnn-close"):  # no GG-CNN in the run, damaged files
+        if policy in P.GGCNN_POLICIES:  # no GG-CNN in the run, damaged files
             ggcnn_params, _ = load_ggcnn(args.run)
             ggcnn_cfg = checkpoint.load_config(ggcnn_dir(args.run))
         # A run that trained only GG-CNN has its config in RUN/ggcnn/.
@@ -203,7 +287,7 @@ def _eval_config(args, policy, run_cfg, ggcnn_cfg, overrides):
                            "scene.copies_per_shape": 1})
     cfg = C.replace(run_cfg, **scene_over, **overrides)
     scene.build_spec(cfg)  # the scene's own checks (shape names), in milliseconds
-    if policy in ("gdnet", "vags") and (cfg.net != run_cfg.net or cfg.workspace != run_cfg.workspace):
+    if policy in ("gdnet", "vags", "nbv") and (cfg.net != run_cfg.net or cfg.workspace != run_cfg.workspace):
         raise ValueError("--set must not change net.* or workspace.*: the trained GDNet needs the "
                          "network and heightmaps it was trained with")
     if ggcnn_cfg is not None and (
@@ -240,6 +324,8 @@ def prepare_eval(args) -> SimpleNamespace:
         _, variables, step = rundir.load_gdnet(args.run, args.step)
     if policy == "vags":  # the config's gate / close-view planner against the run's networks
         P.vags_params(networks, cfg)
+    if policy == "nbv":  # the close-view planner against the run's networks
+        P.nbv_params(networks, cfg)
     groups = E.check_groups(groups, cfg, rounds)
     time_model = M.MotionTimeModel.from_config(cfg)
     name = "vags-no-viewpoint" if args.no_viewpoint else policy

@@ -25,6 +25,7 @@ def tiny() -> Config:
         stage1=Stage(n_worlds=4, iterations=40, min_objects=1, max_objects=3, learning_starts=8),
         stage2=Stage(name="vanet", n_worlds=4, iterations=20, min_objects=1, max_objects=3, learning_starts=8),
         stage3=Stage(name="alternate", n_worlds=4, iterations=20, min_objects=1, max_objects=3, learning_starts=8),
+        nbv=Stage(name="nbv", n_worlds=4, iterations=20, min_objects=1, max_objects=3, learning_starts=8),
         # GG-CNN at 24 x 24 (the 96-pixel square of the 128 x 96 image, resized by 1/4).
         ggcnn=GGCNNConfig(input_size=24, inpaint_iters=16, quality_sigma=1.0, train_steps=60),
         ggcnn_data=GGCNNData(views=16, heldout_views=8, candidates=8, scenes_per_batch=4),
@@ -55,6 +56,9 @@ def gpu() -> Config:
                      updates_per_iteration=16, learning_starts=512),
         stage3=Stage(name="alternate", n_worlds=512, iterations=80, min_objects=1, max_objects=10,
                      updates_per_iteration=16, learning_starts=512),
+        # NBV (train.py --stage nbv): stage 2's budget, for one viewpoint network.
+        nbv=Stage(name="nbv", n_worlds=512, iterations=80, min_objects=1, max_objects=10,
+                  updates_per_iteration=16, learning_starts=512),
         # GG-CNN: 4,096 + 512 views of 64 candidates (bench/RESULTS.md, "Close views and GG-CNN").
         ggcnn=GGCNNConfig(batch_size=32, train_steps=6000),
         ggcnn_data=GGCNNData(views=4096, heldout_views=512, candidates=64, scenes_per_batch=64),

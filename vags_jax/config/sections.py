@@ -815,6 +815,61 @@ class GGCNNData:
         _within("GGCNNData.width_margin", self.width_margin, 0, 0.2, "metres")
 
 
+# ----------------------------------------------------------------------------- baselines
+
+
+@dataclass(frozen=True)
+@checked
+class Mvp:
+    """Multi-View Picking (Morrison et al. 2019; ``eval.py --policy mvp``, docs/baselines.md).
+
+    A grid of ``cell``-sized cells over the workspace keeps, per cell, a histogram of GG-CNN's
+    quality in ``quality_bins`` bins and the quality-weighted votes of ``angle_bins`` grasp
+    angles, updated from every view.  After the global view the camera moves straight above the
+    workspace centre at ``start_height`` (m above the table) looking down, then ``step`` m per
+    view: towards the cell of largest information gain (the footprint-blurred entropy of the
+    quality histograms) less the distance cost to the best grasp (``best_scale``,
+    ``best_gain``, weighted by the camera's height), within ``greedy_window`` m, and always
+    down (at least ``min_descent`` of each step).  Viewing stops before the camera would go
+    below ``stop_height``; the best fused grasp is executed.  Failed grasps leave a Gaussian of
+    ``failure_sigma`` m (height 1) in a failure map subtracted from the quality for the rest of
+    the round.  The MVP code's values: 5 mm cells, 10 x 18 bins, 0.15 m, 0.75, 0.1 m, 7.5 mm.
+    """
+
+    cell: float = 0.005
+    quality_bins: int = 10
+    angle_bins: int = 18
+    start_height: float = 0.50
+    stop_height: float = 0.25
+    step: float = 0.05
+    min_descent: float = 0.6
+    greedy_window: float = 0.10
+    best_scale: float = 0.15
+    best_gain: float = 0.75
+    failure_sigma: float = 0.0075
+
+    def __post_init__(self):
+        _within("Mvp.cell", self.cell, 0.001, 0.1, "metres")
+        _within("Mvp.quality_bins", self.quality_bins, 2, 100)
+        _within("Mvp.angle_bins", self.angle_bins, 2, 180)
+        _within("Mvp.stop_height", self.stop_height, 0.0, 2.0, "metres", lo_open=True)
+        _check(self.stop_height < self.start_height <= 2.0,
+               f"Mvp needs stop_height < start_height <= 2 m, got {self.stop_height} and {self.start_height}")
+        _within("Mvp.step", self.step, 0.0, 1.0, "metres", lo_open=True)
+        _within("Mvp.min_descent", self.min_descent, 0.0, 1.0, lo_open=True)
+        _check((self.start_height - self.stop_height) / (self.step * self.min_descent) <= 200,
+               "Mvp: (start_height - stop_height) / (step * min_descent) must be at most 200 view steps")
+        _within("Mvp.greedy_window", self.greedy_window, 0.0, 1.0, "metres", lo_open=True)
+        _within("Mvp.best_scale", self.best_scale, 0.0, 10.0, "metres", lo_open=True)
+        _within("Mvp.best_gain", self.best_gain, 0.0, 100.0)
+        _within("Mvp.failure_sigma", self.failure_sigma, 0.0, 0.1, "metres")
+
+    def view_steps(self) -> int:
+        """The most camera moves of one attempt: the move to the start pose, then one per view
+        step while each step descends at least ``step * min_descent``."""
+        return 1 + int(math.floor((self.start_height - self.stop_height) / (self.step * self.min_descent) + 1e-9))
+
+
 # ----------------------------------------------------------------------------- benchmark
 
 
@@ -872,10 +927,14 @@ class Config:
     # Stage 2: VANet with GDNet frozen; stage 3: both, updated alternately (paper 3.2).
     stage2: Stage = field(default_factory=lambda: Stage(name="vanet", min_objects=1, max_objects=10))
     stage3: Stage = field(default_factory=lambda: Stage(name="alternate", min_objects=1, max_objects=10))
+    # The NBV baseline (train.py --stage nbv): a small viewpoint network trained as VANet in stage 2,
+    # but always moving.  Its max_objects is capped at scene.max_objects when the worlds are drawn.
+    nbv: Stage = field(default_factory=lambda: Stage(name="nbv", min_objects=1, max_objects=10))
     vags: Vags = field(default_factory=Vags)
     ggcnn: GGCNNConfig = field(default_factory=GGCNNConfig)
     ggcnn_data: GGCNNData = field(default_factory=GGCNNData)
     benchmark: Benchmark = field(default_factory=Benchmark)
+    mvp: Mvp = field(default_factory=Mvp)
 
     def __post_init__(self):
         N = self.scene.max_objects
@@ -886,9 +945,9 @@ class Config:
         _check(self.benchmark.groups is None or max(self.benchmark.groups) <= N,
                f"benchmark.groups {self.benchmark.groups} go above scene.max_objects ({N}); the scene "
                f"holds at most {N} objects")
-        for name in ("stage1", "stage2", "stage3"):
+        for name in ("stage1", "stage2", "stage3", "nbv"):
             st = getattr(self, name)
-            _check(st.max_objects <= self.scene.max_objects,
+            _check(st.max_objects <= self.scene.max_objects or name == "nbv",  # nbv: capped when drawn
                    f"{name}.max_objects ({st.max_objects}) exceeds scene.max_objects ({self.scene.max_objects})")
             _check(st.learning_starts <= self.replay.capacity,
                    f"{name}.learning_starts ({st.learning_starts}) exceeds replay.capacity "
@@ -909,7 +968,7 @@ class Config:
                f"{replay_bytes / 2**30:,.0f} GiB ({REPLAY_BYTES_PER_CELL} bytes per cell), more than "
                f"{MAX_DEVICE_BYTES // 2**30} GiB; lower replay.capacity (at most "
                f"{MAX_DEVICE_BYTES // (REPLAY_BYTES_PER_CELL * px * px):,}) or workspace.heightmap_px")
-        for name in ("stage1", "stage2", "stage3"):
+        for name in ("stage1", "stage2", "stage3", "nbv"):
             n = getattr(self, name).n_worlds
             q_bytes = 2 * n * self.net.n_rotations * px * px
             _check(q_bytes <= MAX_DEVICE_BYTES,

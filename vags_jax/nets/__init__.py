@@ -24,6 +24,7 @@ from .qnet import (
     init_qnet,
     init_variables,
     make_qnet,
+    nbv_net,
     make_trunk,
     normalise_colour,
     normalise_height,
@@ -39,7 +40,7 @@ from .small import SmallTrunk
 
 __all__ = [
     "DenseNet121", "SmallTrunk", "GGCNN", "GGCNNConfig", "GraspMaps", "init_ggcnn", "GDNet", "VANet", "QHead", "TrunkGeometry",
-    "make_qnet", "init_qnet", "init_variables", "variable_shapes", "make_trunk", "trunk_geometry", "padded_size", "rotation_angles",
+    "make_qnet", "nbv_net", "init_qnet", "init_variables", "variable_shapes", "make_trunk", "trunk_geometry", "padded_size", "rotation_angles",
     "normalise_colour", "normalise_height", "pad_inputs", "rotated_inputs", "coarse_to_heightmap",
     "count_params", "rotate", "unrotate", "sample_bilinear", "source_coords",
     "densenet121_key_map", "load_densenet121", "read_state_dict", "to_torchvision_state_dict", "initial_variables",

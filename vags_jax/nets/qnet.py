@@ -283,6 +283,12 @@ def make_qnet(net_cfg, kind: str = "gdnet") -> nn.Module:
     raise ValueError(f"make_qnet: kind must be 'gdnet' or 'vanet', got {kind!r}")
 
 
+def nbv_net(net_cfg):
+    """The NBV baseline's network config from a ``config.Net``: VANet's two-stream design on the
+    small trunk (at ``small_width``), randomly initialised."""
+    return dataclasses.replace(net_cfg, trunk="small", init=None)
+
+
 def init_qnet(key: jax.Array, model: nn.Module, height: int, width: int) -> dict:
     """Initialise ``{"params", "batch_stats"}`` for heightmaps of ``(height, width)``.
 

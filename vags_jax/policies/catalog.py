@@ -26,6 +26,13 @@ an action ``(B, 3) int32 [rotation, row, col]`` on the global heightmaps (1 moti
   baseline).  ``ggcnn-close``: move the camera 25 cm above the ``highest`` cell, take a depth
   image there and grasp at GG-CNN's best grasp, 2 motions.  Both need a GG-CNN trained by
   ``train.py --stage ggcnn``.
+* ``nbv``: the next-best-view baseline: the small viewpoint network of ``train.py --stage nbv``
+  (``nets.nbv_net``) on the global maps, ALWAYS a move to its argmax viewpoint, then the
+  close-view planner's grasp (``vags.local_planner``), 2 motions.  params = ``{"vanet", "gdnet",
+  "ggcnn"}`` (``rundir.load_nbv``).
+* ``mvp``: Multi-View Picking (``vags_jax.policies.mvp``): GG-CNN on a descending sequence of
+  views fused in a grid, 1 + the camera moves motions; its failure map is the policy's memory
+  over a round.  Needs a GG-CNN.
 """
 from __future__ import annotations
 
@@ -39,11 +46,14 @@ import jax.numpy as jnp
 from vags_jax.config import Config
 from vags_jax.env import Attempt, EnvState, VagsEnv
 from vags_jax.ggcnn.planner import predict_grasp
-from vags_jax.nets import make_qnet
+from vags_jax.nets import make_qnet, nbv_net
 from vags_jax.nets.ggcnn import GGCNN
-from vags_jax.policies.decision import VagsNets, gate_threshold
+from vags_jax.policies.decision import VagsNets, close_view_grasp, gate_threshold, greedy
+from vags_jax.policies.mvp import MvpPlanner
 
-POLICIES = ("vags", "gdnet", "ggcnn", "ggcnn-close", "random", "highest", "heuristic")
+POLICIES = ("vags", "gdnet", "ggcnn", "ggcnn-close", "mvp", "nbv", "random", "highest", "heuristic")
+# The policies that need a GG-CNN trained by ``train.py --stage ggcnn``.
+GGCNN_POLICIES = ("ggcnn", "ggcnn-close", "mvp")
 
 
 @dataclass(frozen=True)
@@ -57,12 +67,18 @@ class Policy:
     (network weights), or None.  ``act``: for policies that choose a heightmap action on the
     global view, ``(params, key, state) -> action (B, 3) int32 [rotation, row, col]`` (``plan``
     executes it, 1 motion); None for the others.
+
+    A policy with a memory over the attempts of a round (MVP's failure map) gives
+    ``init_memory(B) -> pytree`` and ``remember(memory, attempt, success (B,) bool) -> memory``
+    (run after every attempt); its ``plan`` then takes the memory as a fifth argument.
     """
 
     name: str
     plan: Callable
     params: Any = None
     act: Optional[Callable] = None
+    init_memory: Optional[Callable] = None
+    remember: Optional[Callable] = None
 
 
 def heightmap_policy(name: str, act: Callable, params: Any = None) -> Policy:
@@ -107,6 +123,33 @@ def vags_plan(cfg: Config) -> Callable:
         return nets.plan(params, key, env, state)[0]
 
     return plan
+
+
+def nbv_plan(cfg: Config) -> Callable:
+    """The NBV baseline: the viewpoint network's argmax on the global maps, always moved to, then
+    the close-view planner's grasp there (``decision.close_view_grasp``, 2 motions)."""
+    view_net = make_qnet(nbv_net(cfg.net), "vanet")
+    nets = VagsNets(cfg)
+
+    def plan(params, key, env: VagsEnv, state: EnvState) -> Attempt:
+        q_view = nets.q_fn(view_net, params["vanet"])(state.color, state.height)  # (B, H, W)
+        view, _ = greedy(q_view)
+        gdnet_q = nets.gdnet_q(params["gdnet"]) if cfg.vags.local_planner == "gdnet" else None
+        return close_view_grasp(cfg, env, state, view, key, gdnet_q, params.get("ggcnn"), nets.ggcnn)[0]
+
+    return plan
+
+
+def nbv_params(networks, cfg: Config) -> dict:
+    """The ``nbv`` policy's params from ``rundir.load_nbv``; ValueError when the close-view
+    planner needs a GG-CNN the run lacks."""
+    if cfg.vags.local_planner == "ggcnn" and networks.ggcnn is None:
+        raise ValueError("vags.local_planner=ggcnn needs a GG-CNN in the run (RUN/ggcnn): train one with "
+                         "python train.py --stage ggcnn --out RUN")
+    params = {"vanet": networks.vanet, "gdnet": networks.gdnet}
+    if networks.ggcnn is not None:
+        params["ggcnn"] = networks.ggcnn
+    return params
 
 
 def vags_params(networks, cfg: Config, threshold=None) -> dict:
@@ -262,14 +305,22 @@ def make_policy(name: str, cfg: Config, gdnet_variables: Any = None, ggcnn_param
             raise ValueError("policy 'vags' needs the trained networks of a run (eval.py --run RUN after "
                              "train.py's stage 2 or 3), or pass vags_networks")
         return Policy("vags", vags_plan(cfg), vags_params(vags_networks, cfg, threshold))
+    if name == "nbv":
+        if vags_networks is None:
+            raise ValueError("policy 'nbv' needs the NBV network of a run (train.py --stage nbv --out RUN, then "
+                             "eval.py --run RUN --policy nbv), or pass vags_networks (rundir.load_nbv)")
+        return Policy("nbv", nbv_plan(cfg), nbv_params(vags_networks, cfg))
     if name == "gdnet":
         if gdnet_variables is None:
             raise ValueError("policy 'gdnet' needs trained GDNet variables: evaluate a run "
                              "directory (eval.py --run RUN) or pass gdnet_variables")
         return heightmap_policy("gdnet", gdnet_act(cfg), gdnet_variables)
-    if name in ("ggcnn", "ggcnn-close"):
+    if name in GGCNN_POLICIES:
         if ggcnn_params is None:
             raise ValueError(f"policy {name!r} needs trained GG-CNN parameters: evaluate a run with a GG-CNN "
                              f"(train.py --stage ggcnn --out RUN, then eval.py --run RUN) or pass ggcnn_params")
+        if name == "mvp":
+            mvp = MvpPlanner(cfg)
+            return Policy(name, mvp.plan, ggcnn_params, init_memory=mvp.init_memory, remember=mvp.remember)
         return Policy(name, ggcnn_plan(cfg, close=name == "ggcnn-close"), ggcnn_params)
     return heightmap_policy(name, {"random": random_act, "highest": highest_act, "heuristic": heuristic_act}[name](cfg))

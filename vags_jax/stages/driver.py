@@ -50,7 +50,7 @@ class Programs:
         return self._built[key]
 
     def _cfg_key(self, kind: str, cfg):
-        return kind, C.replace(cfg, **{f"stage{n}.iterations": 1 for n in (1, 2, 3)})
+        return kind, C.replace(cfg, **{f"stage{n}.iterations": 1 for n in (1, 2, 3)}, **{"nbv.iterations": 1})
 
     def env(self, cfg) -> VagsEnv:
         return self.get(self._cfg_key("env", cfg), lambda: VagsEnv(cfg))
@@ -58,7 +58,7 @@ class Programs:
     def stage(self, name: str, cfg):
         """The built ``Stage1`` / ``VagsStage`` of ``name`` for ``cfg`` on this process's env."""
         make = (lambda: Stage1(cfg, self.env(cfg))) if name == "stage1" else (
-            lambda: VagsStage(cfg, int(name[-1]), self.env(cfg)))
+            lambda: VagsStage(cfg, pipeline.which_stage(name), self.env(cfg)))
         return self.get(self._cfg_key(name, cfg), make)
 
     def data_maker(self, cfg) -> ggcnn_data.DataMaker:
@@ -274,9 +274,9 @@ def end_of_segment(args, name: str, start_it: int, it: int, t0: float, status: s
 def handover_from_disk(run_dir: str, cfg, name: str, h: pipeline.Handover) -> pipeline.Handover:
     """``h`` with what stage ``name`` needs from stages finished by an earlier process, read
     from their checkpoints (fields already set, in memory, are kept)."""
-    if h.ggcnn is None and name in ("stage2", "stage3"):
+    if h.ggcnn is None and name in ("stage2", "stage3", "nbv"):
         h = h.replace(ggcnn=rundir.ggcnn_params(run_dir, cfg, name))
-    if name == "stage2" and h.gdnet is None:
+    if name in ("stage2", "nbv") and h.gdnet is None:
         h = h.replace(gdnet=rundir.stage1_gdnet(run_dir, cfg, name))
     if name == "stage3" and h.vanet is None:
         gd, va, su, thr = rundir.stage2_result(run_dir, cfg, name)
@@ -289,7 +289,7 @@ def _restore_target(fns: pipeline.StageFns, cfg, name: str, gg):
     key = rundir.stage_key(cfg, name)
     if name == "stage1":
         return fns.init(key, pipeline.Handover())
-    gd, va = rundir.learner_target(cfg, "gdnet"), rundir.learner_target(cfg, "vanet")
+    gd, va = rundir.learner_target(cfg, "gdnet"), rundir.learner_target(cfg, "nbv" if name == "nbv" else "vanet")
     return fns.init(key, pipeline.Handover(ggcnn=gg, gdnet=gd, vanet=va, success=gd, threshold=0.0))
 
 
@@ -330,7 +330,7 @@ def run_stage(cfg, args, name: str, done: int, h: pipeline.Handover, deadline, p
     if end_of_segment(args, name, done, it, t0, status):
         return 1, None
     summary = {"stage": name, "iterations": it, "grasp_attempts": grasps, "recent_success_rate": recent}
-    if name != "stage1":
+    if name not in ("stage1", "nbv"):  # NBV's is +inf: it always moves
         summary["threshold"] = float(state.threshold)
     summary.update(wall_s=round(time.time() - t0, 1), out=out_dir)
     return summary, (fns.output(state, h) if it >= st.iterations else h)
@@ -424,7 +424,8 @@ def _pipeline_locked(args, only, plan, programs: Programs) -> int:
         summaries.append(summary)
         if summary.get("iterations", want) < want:  # stopped by --max-minutes
             break
-    status = {n: f"{rundir.progress(args.out, n)}/{rundir.total(cfg, n)}" for n in rundir.ORDER
+    shown = rundir.ORDER + tuple(n for n in rundir.BASELINES if n == only or rundir.progress(args.out, n))
+    status = {n: f"{rundir.progress(args.out, n)}/{rundir.total(cfg, n)}" for n in shown
               if rundir.total(cfg, n) or rundir.progress(args.out, n)}
     print(json.dumps({"stages": summaries, "progress": status, "wall_s": round(time.time() - t0, 1),
                       "out": args.out}))

@@ -65,6 +65,9 @@ def stage_fns(name: str, program) -> StageFns:
     if name == "stage1":
         return StageFns(init=lambda key, h: program.init(key), run=program.run,
                         output=lambda s, h: h.replace(gdnet=s.learner), program=program)
+    if name == "nbv":  # trained apart (train.py --stage nbv): it hands nothing on
+        return StageFns(init=lambda key, h: program.init(key, h.gdnet, h.ggcnn), run=program.run,
+                        output=lambda s, h: h, program=program)
     if name == "stage2":
         return StageFns(init=lambda key, h: program.init(key, h.gdnet, h.ggcnn), run=program.run,
                         output=lambda s, h: h.replace(gdnet=s.gdnet, vanet=s.vanet, success=s.success,
@@ -76,10 +79,15 @@ def stage_fns(name: str, program) -> StageFns:
                     program=program)
 
 
+def which_stage(name: str):
+    """``VagsStage``'s ``which`` of stage ``name`` (stage2 / stage3 / nbv)."""
+    return "nbv" if name == "nbv" else int(name[-1])
+
+
 def make_stage(cfg: Config, name: str, env: VagsEnv) -> StageFns:
     """Stage ``name`` built for ``cfg`` on ``env`` (its programs compile at the first ``run``)."""
     name = rundir.canonical(name)
-    program = Stage1(cfg, env) if name == "stage1" else VagsStage(cfg, int(name[-1]), env)
+    program = Stage1(cfg, env) if name == "stage1" else VagsStage(cfg, which_stage(name), env)
     return stage_fns(name, program)
 
 
@@ -129,4 +137,4 @@ def networks_of(h: Handover) -> dict:
 
 
 __all__ = ["Handover", "StageFns", "default_chunk", "stage_fns", "make_stage", "run_stage", "train_in_memory",
-           "networks_of"]
+           "networks_of", "which_stage"]

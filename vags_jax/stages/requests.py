@@ -23,7 +23,7 @@ from vags_jax.stages import ggcnn as ggcnn_stage
 
 # What a run directory may hold besides its checkpoints, for --out to be reused by a fresh run
 # when it has no checkpoint yet (a run that failed before its first checkpoint).
-RUN_LEFTOVERS = ("config.json", "metrics.jsonl", "checkpoints", "ggcnn", "stage2", "stage3", "timings.jsonl",
+RUN_LEFTOVERS = ("config.json", "metrics.jsonl", "checkpoints", "ggcnn", "stage2", "stage3", "nbv", "timings.jsonl",
                  run_lock.LOCK_FILE)
 ITERATION_KEYS = ("stage1.iterations", "stage2.iterations", "stage3.iterations")
 
@@ -181,6 +181,8 @@ def read_stage1_checkpoint(out: str, cfg, step: int) -> dict:
 
 def check_not_built_on(out: str, name: str) -> None:
     """A stage's iterations may change only while no later stage has started from its end."""
+    if name not in rundir.ORDER:  # a baseline's stage: nothing starts from it
+        return
     later = rundir.ORDER[rundir.ORDER.index(name) + 1:]
     started = [n for n in later if n != "ggcnn" and rundir.progress(out, n) > 0]
     if started:
@@ -260,7 +262,7 @@ def prepare_pipeline(args, only):
         if name != "ggcnn" and rundir.progress(args.out, name) > 0:
             check_metrics_file(d)
     if only is not None:  # its prerequisites: every earlier stage complete
-        for name in rundir.ORDER[:rundir.ORDER.index(only)]:
+        for name in rundir.prerequisites(only):
             done, want = rundir.progress(args.out, name), rundir.total(cfg, name)
             if done < want:
                 state = "has no checkpoint" if done == 0 else f"reached iteration {done} of {want}"

@@ -8,6 +8,7 @@ A run directory::
     RUN/ggcnn/                 GG-CNN (train.py --stage ggcnn): checkpoints/, config.json, metrics.json
     RUN/stage2/checkpoints/, metrics.jsonl  stage 2 (VANet, GDNet frozen) -- VagsTrainState
     RUN/stage3/checkpoints/, metrics.jsonl  stage 3 (both, alternating)  -- VagsTrainState
+    RUN/nbv/checkpoints/, metrics.jsonl, networks/   the NBV baseline (train.py --stage nbv)
     RUN/timings.jsonl          wall-clock of every stage segment train.py ran
 
 Stage order: ``ggcnn``, ``stage1``, ``stage2``, ``stage3`` (``ORDER``).  Stage 2 starts from
@@ -33,20 +34,24 @@ from vags_jax.stages import ggcnn as ggcnn_stage
 from vags_jax.stages.stage23 import final_threshold
 from vags_jax.rl import dqn
 from vags_jax.config import Config
-from vags_jax.nets import init_qnet, make_qnet
+from vags_jax.nets import init_qnet, make_qnet, nbv_net
 
 ORDER = ("ggcnn", "stage1", "stage2", "stage3")
+# Stages outside the pipeline's fold, trained only when asked for (train.py --stage NAME), with
+# the stages they start from.
+BASELINES = {"nbv": ("ggcnn", "stage1")}
 ALIASES = {"gdnet": "stage1", "vanet": "stage2", "alternate": "stage3"}
 DESCRIPTION = {"ggcnn": "GG-CNN on physics-labelled views", "stage1": "stage 1: GDNet",
-               "stage2": "stage 2: VANet, GDNet frozen", "stage3": "stage 3: GDNet and VANet, alternating"}
-STAGE_SEED_SALT = {"stage1": 0, "stage2": 2, "stage3": 3}
+               "stage2": "stage 2: VANet, GDNet frozen", "stage3": "stage 3: GDNet and VANet, alternating",
+               "nbv": "the NBV baseline's viewpoint network"}
+STAGE_SEED_SALT = {"stage1": 0, "stage2": 2, "stage3": 3, "nbv": 7}
 
 
 def canonical(name: str) -> str:
     """A stage name or alias (gdnet, vanet, alternate) -> one of ``ORDER``; ValueError otherwise."""
     n = ALIASES.get(name, name)
-    if n not in ORDER:
-        raise ValueError(f"unknown stage {name!r}; choose one of {', '.join(ORDER)} "
+    if n not in ORDER and n not in BASELINES:
+        raise ValueError(f"unknown stage {name!r}; choose one of {', '.join(ORDER + tuple(BASELINES))} "
                          f"(aliases: {', '.join(f'{a}={b}' for a, b in ALIASES.items())})")
     return n
 
@@ -57,6 +62,12 @@ def stage_dir(run_dir: str, name: str) -> str:
     if name == "stage1":
         return run_dir
     return os.path.join(run_dir, name)
+
+
+def prerequisites(name: str) -> tuple:
+    """The stages that must be complete before stage ``name`` starts."""
+    name = canonical(name)
+    return BASELINES[name] if name in BASELINES else ORDER[:ORDER.index(name)]
 
 
 def needs_ggcnn(cfg: Config) -> bool:
@@ -92,10 +103,10 @@ def stage_key(cfg: Config, name: str) -> jax.Array:
 
 
 def learner_target(cfg: Config, kind: str) -> dqn.TrainState:
-    """Host zeros shaped like a GDNet / VANet learner of ``cfg`` (a restore target; nothing is
-    compiled)."""
+    """Host zeros shaped like a GDNet / VANet / NBV (``kind="nbv"``, ``nets.nbv_net``) learner
+    of ``cfg`` (a restore target; nothing is compiled)."""
     H = cfg.workspace.heightmap_px
-    net = make_qnet(cfg.net, kind)
+    net = make_qnet(nbv_net(cfg.net), "vanet") if kind == "nbv" else make_qnet(cfg.net, kind)
     shapes = jax.eval_shape(lambda k: dqn.create_train_state(init_qnet(k, net, H, H), cfg.dqn), jax.random.PRNGKey(0))
     return jax.tree.map(lambda x: np.zeros(x.shape, x.dtype), shapes)
 
@@ -213,6 +224,24 @@ def load_vags(run_dir: str, cfg: Optional[Config] = None, step: Optional[int] = 
                         source=f"{found[0]} step {s}")
 
 
+def load_nbv(run_dir: str, cfg: Optional[Config] = None) -> VagsNetworks:
+    """The NBV baseline of a run (``train.py --stage nbv``): its viewpoint network as ``vanet``,
+    the GDNet it trained beside (the "gdnet" close-view planner's) and the run's GG-CNN;
+    CheckpointError (one line, what to run) when it has none."""
+    cfg = checkpoint.load_config(run_dir) if cfg is None else cfg
+    d = networks_dir(run_dir, "nbv")
+    if not (os.path.isdir(d) and checkpoint.checkpoint_steps(d)):
+        raise checkpoint.CheckpointError(f"run {run_dir} has no NBV network yet: train it with "
+                                         f"python train.py --out {run_dir} --stage nbv")
+    gd, s = checkpoint.restore_part(d, "gdnet", _vars_target(cfg, "gdnet"), None)
+    va, _ = checkpoint.restore_part(d, "vanet", _vars_target(cfg, "nbv"), s)
+    gg = None
+    if os.path.isdir(ggcnn_stage.ggcnn_dir(run_dir)):
+        gg, _ = ggcnn_stage.load_ggcnn(run_dir)
+    return VagsNetworks(gdnet=gd, vanet=va, ggcnn=gg, q_threshold=jnp.asarray(jnp.inf, jnp.float32),
+                        source=f"nbv step {s}")
+
+
 def _saved_without(run_dir: str, section: str, field: str) -> bool:
     """Whether ``run_dir``'s config.json has ``section`` but not ``section.field`` (written by
     code older than the field, so it loads with today's default instead of what was used)."""
@@ -252,6 +281,6 @@ def load_gdnet(run_dir: str, step: Optional[int] = None):
     return cfg, {"params": learner.params, "batch_stats": learner.batch_stats}, step
 
 
-__all__ = ["ORDER", "ALIASES", "DESCRIPTION", "canonical", "stage_dir", "total", "progress", "stage_key",
+__all__ = ["ORDER", "BASELINES", "prerequisites", "load_nbv", "ALIASES", "DESCRIPTION", "canonical", "stage_dir", "total", "progress", "stage_key",
            "learner_target", "stage1_gdnet", "needs_ggcnn", "ggcnn_params", "stage2_result", "VagsNetworks",
            "load_vags", "networks_dir", "save_networks", "ggcnn_reusable", "load_gdnet"]

@@ -28,6 +28,11 @@ GDNet's argmax and largest Q are carried from one iteration to the next (step 4)
 once per iteration on the global views (and once on the fused maps with the "gdnet" planner);
 in stage 3 the decision uses the GDNet of the previous iteration's start.  GG-CNN is frozen.
 
+The NBV baseline (``VagsStage(cfg, "nbv")``, ``train.py --stage nbv``) is stage 2 with an
+"always move" decision: its viewpoint network (``nbv_net``: VANet's design on the small trunk)
+learns with VANet's reward and replay, every attempt moves to its viewpoint (DAES explores it
+as VANet's), and the success net is not trained.  Its worlds follow ``cfg.nbv``.
+
 Everything is one ``lax.scan`` inside one jit.  ``VagsStage.run(state, n)`` advances n
 iterations; running the same chunks from a restored state gives bit-identical results.
 ``vags_jax.stages.pipeline`` chains them with stage 1 and GG-CNN.
@@ -49,7 +54,7 @@ from vags_jax.config import Config, Stage, Vags
 from vags_jax.policies.decision import (Decision, gate_score, gate_threshold, greedy, plan_attempt, update_calibration,
                                value_at)
 from vags_jax.env import EnvState, VagsEnv
-from vags_jax.nets import initial_variables, make_qnet
+from vags_jax.nets import initial_variables, make_qnet, nbv_net
 from vags_jax.nets.ggcnn import GGCNN
 
 
@@ -115,6 +120,12 @@ def calibrated_threshold(q_max: jax.Array, vcfg: Vags) -> jax.Array:
     return jnp.quantile(q_max.astype(jnp.float32), vcfg.threshold_quantile).astype(jnp.float32)
 
 
+def _nbv_stage(cfg: Config) -> Stage:
+    """``cfg.nbv`` with max_objects capped at scene.max_objects."""
+    top = min(cfg.nbv.max_objects, cfg.scene.max_objects)
+    return dataclasses.replace(cfg.nbv, max_objects=top, min_objects=min(cfg.nbv.min_objects, top))
+
+
 def _example_transition(H: int, action_dim: int):
     color, height = jnp.zeros((H, H, 3), jnp.uint8), jnp.zeros((H, H), jnp.float32)
     return replay.make_grasp_transition(color, height, jnp.zeros((action_dim,), jnp.int32), 0.0, color, height,
@@ -122,17 +133,20 @@ def _example_transition(H: int, action_dim: int):
 
 
 class VagsStage:
-    """Stage 2 (``which=2``: VANet and the success net, GDNet frozen) or stage 3 (``which=3``:
-    all three).  Build once per config; ``run`` is compiled per chunk length n."""
+    """Stage 2 (``which=2``: VANet and the success net, GDNet frozen), stage 3 (``which=3``:
+    all three) or the NBV baseline (``which="nbv"``: stage 2 always moving, its viewpoint network
+    ``nbv_net`` alone learning).  Build once per config; ``run`` is compiled per chunk length n."""
 
-    def __init__(self, cfg: Config, which: int, env: Optional[VagsEnv] = None):
-        if which not in (2, 3):
-            raise ValueError(f"VagsStage: which must be 2 or 3, got {which!r}")
-        self.cfg, self.which = cfg, which
-        self.stage: Stage = cfg.stage2 if which == 2 else cfg.stage3
+    def __init__(self, cfg: Config, which, env: Optional[VagsEnv] = None):
+        if which not in (2, 3, "nbv"):
+            raise ValueError(f"VagsStage: which must be 2, 3 or 'nbv', got {which!r}")
+        self.nbv = which == "nbv"
+        self.cfg, self.which = cfg, 2 if self.nbv else which
+        self.stage: Stage = _nbv_stage(cfg) if self.nbv else (cfg.stage2 if which == 2 else cfg.stage3)
+        self.view_net_cfg = nbv_net(cfg.net) if self.nbv else cfg.net
         self.env = env if env is not None else VagsEnv(cfg)
         self.gdnet = make_qnet(cfg.net, "gdnet")
-        self.vanet = make_qnet(cfg.net, "vanet")
+        self.vanet = make_qnet(self.view_net_cfg, "vanet")
         self.ggcnn = GGCNN()
         self.update_gdnet = dqn.make_update_step(self._apply_gdnet, cfg.dqn, executed_rotation_only=True)
         self.update_success = dqn.make_update_step(
@@ -196,11 +210,13 @@ class VagsStage:
         k_net, k_n, k_env, k_loop = jax.random.split(key, 4)
         H = cfg.workspace.heightmap_px
         if vanet is None:
-            vanet = dqn.create_train_state(initial_variables(k_net, self.vanet, cfg.net, H, H), cfg.dqn)
+            vanet = dqn.create_train_state(initial_variables(k_net, self.vanet, self.view_net_cfg, H, H), cfg.dqn)
         if success is None:
             success = dqn.create_train_state(jax.tree.map(jnp.array, self._vars(gdnet)), cfg.dqn)
         env_state = self.env.reset(k_env, np.asarray(self._n_objects(k_n, self.stage.n_worlds)))
         gd_grasp, gd_qmax = self._greedy_jit(gdnet, env_state)
+        if self.nbv:  # always move: no largest Q exceeds +inf
+            threshold = jnp.inf
         thr = calibrated_threshold(gd_qmax, cfg.vags) if threshold is None else jnp.asarray(threshold, jnp.float32)
         va_buffer = replay.init(cfg.replay.capacity, _example_transition(H, 2))
         gd_buffer = replay.init(cfg.replay.capacity, _example_transition(H, 3))
@@ -225,6 +241,8 @@ class VagsStage:
             gdnet, gd_buffer, gd_stats, n_gd = learn(self.update_gdnet, state.gdnet, gd_buffer, k_g)
             # The success net samples by GDNet's priorities (GDNet owns the buffer in stage 3).
             success, _, s_stats, n_s = learn(self.update_success, state.success, gd_buffer, k_s)
+        elif self.nbv:  # the viewpoint network alone learns
+            success, s_stats, n_s = state.success, jnp.zeros((2,), jnp.float32), 0
         else:
             success, gd_buffer, s_stats, n_s = learn(self.update_success, state.success, gd_buffer, k_s)
         vanet, va_buffer, va_stats, n_va = learn(self.update_vanet, state.vanet, va_buffer, k_v)
@@ -235,7 +253,10 @@ class VagsStage:
         """The gate on the carried GDNet values: "q" in stage 2, ``vags.gate`` in stage 3."""
         cfg, s = self.cfg, state.env
         gate = "q" if self.which == 2 else cfg.vags.gate
-        p_direct = self._p_direct(state.success, s, state.gd_grasp)
+        if self.nbv:  # no direct grasp to estimate
+            p_direct = jnp.zeros_like(state.gd_qmax)
+        else:
+            p_direct = self._p_direct(state.success, s, state.gd_grasp)
         p_view = q_view.reshape(q_view.shape[0], -1).max(axis=1)
         score = gate_score(gate, state.gd_qmax, p_direct, p_view, state.calibration)
         thr = state.threshold if gate == "q" else gate_threshold(cfg.vags, state.threshold)
