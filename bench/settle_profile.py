@@ -28,7 +28,6 @@ import argparse
 import sys
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 
 from timing import emit_row

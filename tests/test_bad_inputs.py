@@ -9,13 +9,11 @@ fails if JAX compiles anything while it runs (``no_compiling``), so each error p
 before any compiling.
 """
 import json
-import math
 import os
 import re
 import shutil
 import subprocess
 import sys
-import time
 import warnings
 
 import jax

@@ -9,7 +9,7 @@ import pytest
 import jax
 import jax.numpy as jnp
 
-from vags_jax.config import Config, replace
+from vags_jax.config import replace
 from vags_jax.sim.scene import FINGER_CLOSED_TARGET, build_scene
 from vags_jax.sim.simulator import GraspResult, SimState, Simulator, check_overflow
 

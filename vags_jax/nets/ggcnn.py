@@ -37,7 +37,6 @@ Output meaning (see ``vags_jax.ggcnn.process`` for the conventions):
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Optional
 
 import flax.linen as nn
