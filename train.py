@@ -67,13 +67,23 @@ def parse_args(argv=None):
     p.add_argument("--max-minutes", type=cli.positive_float(10**6), default=None,
                    help="stop (with a checkpoint) once this much wall time has passed")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--json", action="store_true",
+                   help="print the JSON summary (also written to RUN/summary.json) as the last stdout line; the "
+                        "human summary then goes to stderr")
+    p.add_argument("--verbose", action="store_true",
+                   help="show third-party logs (Warp kernel loading, absl / orbax INFO), silenced by default")
+    p.add_argument("--tensorboard", default=None, metavar="DIR",
+                   help="also stream every metrics row to TensorBoard event files in DIR (needs the "
+                        "tensorboard extra: pip install 'vags_jax[tensorboard]')")
     return p.parse_args(argv)
 
 
 def main(argv=None, programs=None) -> int:
     """Parse, check, build, run, write (``vags_jax.stages.driver``) -> exit code.  ``programs``:
     a ``driver.Programs`` to reuse programs built by an earlier call in this process."""
-    return driver.train(parse_args(argv), programs)  # bad flags: one line, exit code 2
+    args = parse_args(argv)  # bad flags: one line, exit code 2
+    cli.quiet_third_party(args.verbose)
+    return driver.train(args, programs)
 
 
 if __name__ == "__main__":

@@ -24,7 +24,7 @@ from vags_jax.stages import ggcnn as ggcnn_stage
 # What a run directory may hold besides its checkpoints, for --out to be reused by a fresh run
 # when it has no checkpoint yet (a run that failed before its first checkpoint).
 RUN_LEFTOVERS = ("config.json", "metrics.jsonl", "checkpoints", "ggcnn", "stage2", "stage3", "timings.jsonl",
-                 run_lock.LOCK_FILE)
+                 "summary.json", run_lock.LOCK_FILE)
 ITERATION_KEYS = ("stage1.iterations", "stage2.iterations", "stage3.iterations")
 
 
