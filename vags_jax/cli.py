@@ -11,6 +11,7 @@ import logging
 import math
 import os
 import sys
+import tempfile
 from typing import Optional
 
 
@@ -85,6 +86,11 @@ def check_parent_writable(path: str, flag: str) -> None:
         raise ValueError(f"{flag} {path!r}: {parent!r} is a file, not a directory")
     if not os.access(parent, os.W_OK | os.X_OK):
         raise ValueError(f"{flag} {path!r}: no permission to write in {parent!r}")
+    try:  # proven by writing: os.access says yes to root on read-only mounts and in /proc
+        with tempfile.NamedTemporaryFile(dir=parent, prefix=".vags_jax_write_check_"):
+            pass
+    except OSError as e:
+        raise ValueError(f"{flag} {path!r}: cannot write in {parent!r} ({first_line(e)})") from None
 
 
 def quiet_third_party(verbose: bool) -> None:
