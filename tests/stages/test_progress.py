@@ -66,3 +66,26 @@ def test_tensorboard_without_the_extra_is_one_clear_line():
                                          r"'vags_jax\[tensorboard\]'"):
         progress.check_tensorboard("runs/tb")
     progress.check_tensorboard(None)  # not asked for: nothing to check
+
+
+@pytest.mark.skipif(importlib.util.find_spec("tensorboardX") is None, reason="needs the tensorboard extra")
+def test_board_writes_the_scalars_as_tensorboard_events(tmp_path):
+    import glob
+    import struct
+
+    from tensorboardX.proto import event_pb2
+
+    board = progress.Board(str(tmp_path))
+    board.rows([{"stage": "stage1", "iteration": 0, "loss": 0.5, "wall_s": 1.0},
+                {"stage": "stage1", "iteration": 1, "loss": 0.25, "wall_s": 2.0}])
+    board.rows([{"stage": "ggcnn", "step": 10, "loss": 1.5}], step_key="step")
+    board.close()
+    (path,) = glob.glob(str(tmp_path / "events.*"))
+    data, i, got = open(path, "rb").read(), 0, []
+    while i < len(data):  # TFRecord: length (8 bytes), its CRC (4), the Event, its CRC (4)
+        n = struct.unpack("<Q", data[i:i + 8])[0]
+        event = event_pb2.Event()
+        event.ParseFromString(data[i + 12:i + 12 + n])
+        i += 16 + n
+        got += [(event.step, v.tag, v.simple_value) for v in event.summary.value]
+    assert got == [(0, "stage1/loss", 0.5), (1, "stage1/loss", 0.25), (10, "ggcnn/loss", 1.5)]
