@@ -11,6 +11,7 @@ several commands (a test session) compiles each program once.
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -256,6 +257,7 @@ def run_chunks(name: str, stage, state, start_it: int, total: int, out_dir: str,
     if stop is not None:
         stop.at(name, saved_it)
     grasps_done = int(jax.device_get(state.attempts))
+    guard = contextlib.nullcontext if stop is None else stop.protected  # files are never cut by a 2nd Ctrl-C
     while it < total:
         n = min(chunk, total - it)
         tc = time.time()
@@ -265,13 +267,15 @@ def run_chunks(name: str, stage, state, start_it: int, total: int, out_dir: str,
             m = jax.device_get(m)
         dt = time.time() - tc
         run_s, run_its = run_s + max(dt - clock.seconds, 0.0), run_its + n
-        rows = _write_rows(metrics_path, name, m, it, t0)
-        if board is not None:
-            board.rows(rows)
+        with guard():
+            rows = _write_rows(metrics_path, name, m, it, t0)
+            if board is not None:
+                board.rows(rows)
         diverged = nonfinite(m, it, finite)
         if diverged:
             if saved_it != it and not getattr(stage, "donates", False):  # keep the last good state
-                checkpoint.save(out_dir, it, good)
+                with guard():
+                    checkpoint.save(out_dir, it, good)
                 saved_it = it
             if not args.quiet:
                 print(file=sys.stderr)
@@ -291,12 +295,13 @@ def run_chunks(name: str, stage, state, start_it: int, total: int, out_dir: str,
         out_of_time = deadline is not None and time.time() > deadline
         stopping = stop is not None and stop.requested
         if n_chunks % every == 0 or it >= total or out_of_time or stopping:
-            checkpoint.save(out_dir, it, state)
-            saved_it = it
-            if stop is not None:
-                stop.at(name, saved_it)
-            if on_save is not None:
-                on_save(it, state)
+            with guard():
+                checkpoint.save(out_dir, it, state)
+                saved_it = it
+                if stop is not None:
+                    stop.at(name, saved_it)
+                if on_save is not None:
+                    on_save(it, state)
         if (out_of_time or stopping) and it < total:
             if not args.quiet:
                 print(file=sys.stderr)

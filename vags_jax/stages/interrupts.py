@@ -10,6 +10,7 @@ Ctrl-C can still be reported in one line (``abandoned_line``).
 """
 from __future__ import annotations
 
+import contextlib
 import signal
 import threading
 from typing import Optional
@@ -25,6 +26,8 @@ class StopRequests:
         self._old: dict = {}
         self.stage: Optional[str] = None  # the stage being trained and its last saved iteration
         self.saved: Optional[int] = None
+        self._protected = 0  # depth of protected() blocks
+        self._held = False  # a second Ctrl-C arrived inside one
 
     @property
     def requested(self) -> bool:
@@ -45,8 +48,24 @@ class StopRequests:
             return f"interrupted{where} before its first checkpoint; nothing of it was saved"
         return f"interrupted at {self.stage} iteration {self.saved}; --resume continues"
 
+    @contextlib.contextmanager
+    def protected(self):
+        """A block that a second Ctrl-C must not cut (a checkpoint or metrics rows being
+        written): its KeyboardInterrupt is held until the block ends."""
+        self._protected += 1
+        try:
+            yield
+        finally:
+            self._protected -= 1
+            if not self._protected and self._held:
+                self._held = False
+                raise KeyboardInterrupt
+
     def _handle(self, signum, frame) -> None:
         if self.signal is not None and signum == signal.SIGINT:
+            if self._protected:
+                self._held = True
+                return
             raise KeyboardInterrupt
         if self.signal is None:
             self.signal = _SIGNALS[signum]
