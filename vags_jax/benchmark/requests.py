@@ -150,7 +150,10 @@ def _check_flags(args):
     if args.record:
         if os.path.exists(args.record) and not os.path.isdir(args.record):
             raise ValueError(f"--record {args.record!r} is a file; give a directory for the pictures")
-        cli.check_parent_writable(os.path.join(args.record, "x"), "--record")
+        try:
+            cli.check_parent_writable(os.path.join(args.record, "x"), "--record")
+        except ValueError as e:  # name the directory asked for, not the probe file inside it
+            raise ValueError(str(e).replace(repr(os.path.join(args.record, "x")), repr(args.record), 1)) from None
     if args.run and args.config:
         raise ValueError("--run uses the run's own config.json; drop --config (use --set to override)")
     if args.run is not None and not args.run:
