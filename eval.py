@@ -1,11 +1,12 @@
 #!/usr/bin/env python3
 """Benchmark a grasping policy (docs/benchmark.md): groups of k objects, R rounds each.
 
-    python eval.py --run runs/tiny --groups 1,2,3 --rounds 4          # trained GDNet, greedy
+    python eval.py --run runs/tiny --groups 1,2,3 --rounds 4          # VAGS of a pipeline run
+    python eval.py --run runs/s1 --groups 1,2,3 --rounds 4            # GDNet of a stage-1 run, greedy
     python eval.py --run runs/tiny --policy heuristic --groups 1-3    # scripted baseline, same config
     python eval.py --config tiny --policy random --groups 1,2 --rounds 8 --out runs/random.json
     python eval.py --run runs/gpu --set scene.max_objects=10 scene.copies_per_shape=2   # 1..10
-    python eval.py --run runs/gpu --objects unseen      # held-out shapes the GDNet never saw
+    python eval.py --run runs/gpu --objects unseen      # on held-out shapes the networks never saw
     python eval.py --run runs/gpu --policy ggcnn-close  # GG-CNN of train.py --stage ggcnn, close view
     python eval.py --run runs/gpu                       # VAGS (the run's networks and threshold)
     python eval.py --run runs/gpu --no-viewpoint        # VAGS without VANet: GDNet alone
@@ -29,7 +30,8 @@ quantiles of the largest GDNet Q that VAGS saw at its decisions in the main run 
 need not match the paper's); the sweep goes to RUN/eval_vags_sweep.json and .csv.  Groups, rounds, the attempt budget and the robot-time
 model of picks per hour come from the config's benchmark section (--set benchmark.rounds=20).  The configuration is the run's config.json
 (or the --config preset) with --set overrides applied; the scene must hold the largest group
-(scene.max_objects).  Prints a Markdown table and writes the full report as JSON to --out, or
+(scene.max_objects).  Prints a Markdown table with a legend of its columns under it
+(docs/benchmark.md, "Metrics", defines each) and writes the full report as JSON to --out, or
 to RUN/eval_<policy>[_step<N>].json, with a CSV beside it (one row per group and overall).
 --plot PATH draws success and clearing against the number of objects (paper Fig. 7), one line per
 method (needs matplotlib: pip install 'vags_jax[plot]');
@@ -110,6 +112,8 @@ def parse_args(argv=None):
                         "just holds the workspace (docs/benchmark.md); 'legacy': the first benchmark's "
                         "scenes (fixed blocks scattered apart, noiseless camera from the old pose), for "
                         "comparisons with earlier results")
+    p.add_argument("--verbose", action="store_true",
+                   help="show third-party logs (Warp kernel loading, absl / orbax INFO), silenced by default")
     return p.parse_args(argv)
 
 
@@ -159,6 +163,7 @@ def main_compare(args) -> int:
 
 def main(argv=None) -> int:
     args = parse_args(argv)  # bad flags: one line, exit code 2
+    cli.quiet_third_party(args.verbose)
     if args.compare:
         return main_compare(args)
     try:
@@ -193,6 +198,7 @@ def main(argv=None) -> int:
             reports.write_csv(report, os.path.splitext(path)[0] + ".csv",
                               {"threshold": report["threshold"]} if "threshold" in report else None)
             log(f"wrote {path} and {os.path.splitext(path)[0]}.csv")
+    print("\ncolumns:\n" + M.format_legend())
     if args.seeds is not None:
         print(M.format_seeds(name, overall))
     if sweep_abs or sweep_q:

@@ -15,7 +15,8 @@ Stages (--stage): ggcnn; stage1 (alias gdnet); stage2 (alias vanet); stage3 (ali
 (the NBV baseline of eval.py --policy nbv, into --out/nbv; never part of the whole pipeline).
 Writes into --out: config.json; stage 1's metrics.jsonl and checkpoints/ (orbax); ggcnn/
 (checkpoints/, config.json, metrics.json); stage2/ and stage3/ (checkpoints/, metrics.jsonl);
-timings.jsonl (wall-clock of every stage segment).  Every metrics row names its stage.
+timings.jsonl (wall-clock of every stage segment); summary.json (the closing summary, printed as
+the last stdout line with --json).  Every metrics row names its stage.
 The pipeline trains GG-CNN only when the close-view planner uses it (vags.local_planner=ggcnn)
 or vags.train_ggcnn is true (for eval.py --policy ggcnn); --stage ggcnn adds one to a run later.
 Stage 2 starts from stage 1's final GDNet (and the run's GG-CNN, if it has one); stage 3 from
@@ -30,6 +31,13 @@ stage1/2/3.iterations may change, and only for stages that have not been built o
 totals are written to config.json).  --max-minutes stops (with a checkpoint) once that much
 time has passed, inside or between stages.  A run whose loss or Q values become non-finite
 stops with exit code 1, keeping the last good state as its checkpoint.
+
+While it runs it says when each program starts compiling and how long that took, shows a
+progress line with an ETA per stage, and ends with a short summary and the next commands.
+Ctrl-C or SIGTERM stops at the end of the chunk in flight, with a checkpoint and one line
+("interrupted at stage1 iteration N; --resume continues"; exit code 130, 143 for SIGTERM); a
+second Ctrl-C abandons the chunk and keeps the last checkpoint.  A world count whose lower bound
+of device memory (vags_jax/stages/memory.py) exceeds the device's is refused before compiling.
 """
 from __future__ import annotations
 
@@ -70,13 +78,26 @@ def parse_args(argv=None):
     p.add_argument("--max-minutes", type=cli.positive_float(10**6), default=None,
                    help="stop (with a checkpoint) once this much wall time has passed")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--no-memory-check", action="store_true",
+                   help="skip the check that each stage's lower bound of device memory (replay, Q maps, depth "
+                        "images: vags_jax/stages/memory.py) fits this device")
+    p.add_argument("--json", action="store_true",
+                   help="print the JSON summary (also written to RUN/summary.json) as the last stdout line; the "
+                        "human summary then goes to stderr")
+    p.add_argument("--verbose", action="store_true",
+                   help="show third-party logs (Warp kernel loading, absl / orbax INFO), silenced by default")
+    p.add_argument("--tensorboard", default=None, metavar="DIR",
+                   help="also stream every metrics row to TensorBoard event files in DIR (needs the "
+                        "tensorboard extra: pip install 'vags_jax[tensorboard]')")
     return p.parse_args(argv)
 
 
 def main(argv=None, programs=None) -> int:
     """Parse, check, build, run, write (``vags_jax.stages.driver``) -> exit code.  ``programs``:
     a ``driver.Programs`` to reuse programs built by an earlier call in this process."""
-    return driver.train(parse_args(argv), programs)  # bad flags: one line, exit code 2
+    args = parse_args(argv)  # bad flags: one line, exit code 2
+    cli.quiet_third_party(args.verbose)
+    return driver.train(args, programs)
 
 
 if __name__ == "__main__":

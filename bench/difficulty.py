@@ -63,7 +63,7 @@ def main(argv=None) -> int:
             else:
                 base = checkpoint.load_config(args.run)
         else:
-            base = C.preset(args.config or "gpu")
+            base = C.preset("gpu" if args.config is None else args.config)
         groups = parse_groups(args.groups)
     except ValueError as e:
         print(f"difficulty.py: error: {e}", file=sys.stderr)

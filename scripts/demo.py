@@ -31,6 +31,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from vags_jax import cli
 from vags_jax.perception import camera, heightmap, render
 from vags_jax import config as C
 from vags_jax.benchmark import images
@@ -88,7 +89,7 @@ def _describe(env: VagsEnv, sim_state, b: int) -> str:
 
 # Long (one reason): a script's sequence of pictures, each a few lines.
 def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = cli.ArgumentParser(prog="demo.py", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--out", required=True, help="folder for the pictures")
     p.add_argument("--config", default="tiny", help="preset: tiny | gpu | paper | default (default: tiny)")
     p.add_argument("--set", nargs="*", default=[], metavar="SECTION.FIELD=VALUE", help="config overrides")
@@ -103,9 +104,11 @@ def main(argv=None) -> int:
             raise ValueError(f"--worlds must be >= 1, got {args.worlds}")
         if args.objects is not None and not 1 <= args.objects <= cfg.scene.max_objects:
             raise ValueError(f"--objects must be in 1..{cfg.scene.max_objects} (scene.max_objects), got {args.objects}")
+        if os.path.exists(args.out) and not os.path.isdir(args.out):
+            raise ValueError(f"--out {args.out!r} is a file; give a folder for the pictures")
+        cli.check_parent_writable(os.path.join(args.out, "global_rgb.png"), "--out")
     except ValueError as e:
-        print(f"error: {e}", file=sys.stderr)
-        return 2
+        return cli.fail("demo.py", e)
     os.makedirs(args.out, exist_ok=True)
     t0 = time.time()
     B, N, H = args.worlds, cfg.scene.max_objects, cfg.workspace.heightmap_px

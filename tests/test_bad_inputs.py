@@ -155,7 +155,8 @@ SET_CASES = [
     ("grasp.approach_height=0", r"grasp\.approach_height must be in \(0, 1\]"),
     ("camera.width=4", r"Camera image must be at least 8 x 8 pixels"),
     ("camera.width=5000", r"camera\.width must be in \[8, 4,096\] pixels, got 5,000"),
-    ("camera.width=100000", r"camera\.render_batch = 256 images of 100000 x 96 overflow .* at most 223"),
+    ("camera.width=100000", r"camera\.width must be in \[8, 4,096\] pixels, got 100,000"),
+    ("camera.render_batch=200000", r"camera\.render_batch = 200000 images of 128 x 96 overflow .* use at most 174762$"),
     ("camera.height=480.5", r"camera\.height must be an int"),
     ("camera.fx=0", r"camera\.fx and Camera\.fy must be > 0"),
     ("camera.near=0", r"Camera needs 0 < near < far"),
@@ -225,6 +226,7 @@ def test_set_value_is_refused_with_the_field_named(item, msg):
     (["stage1.n_worlds=100000", "workspace.heightmap_px=1024"],
      r"stage1\.n_worlds = 100,000 worlds need Q maps of 16 x 1024 x 1024 each, 3,125 GiB"),
     (["stage1.iterations=2", "stage1.iterations=3"], r"'stage1\.iterations' is given twice \(2 and 3\)"),
+    (["camera.width=100000", "camera.height=100000"], r"camera\.width must be in \[8, 4,096\] pixels, got 100,000$"),
 ])
 def test_set_combinations(items, msg):
     with pytest.raises(ValueError, match=msg):
@@ -287,6 +289,11 @@ TRAIN_FLAG_CASES = [
     (["--set", "noequals"], r"must look like section\.field=value"),
     (["--resume", "--config", "tiny"], r"--resume takes the run's own config\.json; drop --config"),
     (["--resume"], r"run directory .* does not exist; drop --resume"),
+    (["--config", ""], r"unknown config preset ''; choose one of"),
+    (["--config", "", "--stage", "gdnet"], r"unknown config preset ''"),
+    (["--tensorboard", ""], r"--tensorboard must not be empty"),
+    (["--set", "camera.renderer=warp"], r"camera\.renderer=warp needs (an NVIDIA GPU, but JAX runs on cpu|warp-lang)"),
+    (["--stage", "ggcnn", "--set", "camera.renderer=warp"], r"camera\.renderer=warp needs"),
 ]
 
 
@@ -297,6 +304,46 @@ def test_train_flag_is_refused_before_anything_is_written(argv, msg, tmp_path, c
     assert code == 2 and line.startswith("train.py: error: ")
     assert re.search(msg, line), line
     assert not os.path.exists(out), "nothing may be written to --out before the inputs are valid"
+
+
+def test_a_world_count_that_cannot_fit_is_refused_before_compiling(tmp_path, capsys, monkeypatch):
+    """A device of 1 GiB (stages/memory.py's device_bytes, set here): 10,000 tiny worlds need
+    at least 10,000 x (16 x 32 x 32 Q values + 128 x 96 depth pixels) x 4 bytes = 1.07 GiB."""
+    from vags_jax.stages import memory
+
+    monkeypatch.setattr(memory, "device_bytes", lambda: 2**30)
+    out = _fresh_out(tmp_path)
+    code, line = _cli(train.main, ["--out", out, "--set", "stage1.n_worlds=10000"], capsys)
+    assert code == 2 and re.search(r"stage1: 10,000 worlds need at least 1\.1 GiB of device memory .* more than "
+                                   r"the 1\.0 GiB of cpu; lower stage1\.n_worlds .* --no-memory-check", line), line
+    assert not os.path.exists(out)
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root writes into read-only directories")
+def test_resuming_a_read_only_run_is_refused(tmp_path, capsys, fake_run):
+    run = fake_run(tmp_path)
+    modes = {}
+    for root, dirs, _ in os.walk(run):
+        for d in [root] + [os.path.join(root, d) for d in dirs]:
+            modes[d] = os.stat(d).st_mode
+    try:
+        for d in modes:
+            os.chmod(d, 0o555)
+        code, line = _cli(train.main, ["--out", run, "--resume", "--quiet"], capsys)
+    finally:
+        for d, m in modes.items():
+            os.chmod(d, m)
+    assert code == 2 and re.search(rf"--out '{run}': cannot write in '{run}', so the run is read-only; make it writable", line), line
+
+
+def test_demo_out_naming_a_file_is_one_line(tmp_path):
+    target = tmp_path / "pictures.png"
+    target.write_bytes(b"")
+    p = subprocess.run([sys.executable, os.path.join(ROOT, "scripts", "demo.py"), "--out", str(target)], cwd=ROOT,
+                       capture_output=True, text=True, timeout=60,
+                       env={**os.environ, "PYTHONPATH": ROOT + os.pathsep + os.environ.get("PYTHONPATH", "")})
+    assert p.returncode == 2
+    assert _one_line(p.stderr) == f"demo.py: error: --out '{target}' is a file; give a folder for the pictures"
 
 
 def test_train_needs_out(capsys):
@@ -654,6 +701,9 @@ EVAL_FLAG_CASES = [
     (["--set", 'scene.shapes=["cube", "cuboid_long", "blob"]'], r"unknown shape 'blob'"),
     (["--config", "nope"], r"unknown config preset 'nope'"),
     (["--run", ""], r"--run must not be empty"),
+    (["--config", ""], r"unknown config preset ''; choose one of"),
+    (["--set", "camera.renderer=warp"], r"camera\.renderer=warp needs (an NVIDIA GPU, but JAX runs on cpu|warp-lang)"),
+    (["--policy", "random", "--plot", "fig.svg"], r"--plot 'fig\.svg': the plot is a PNG image"),
     (["--unknown"], r"unrecognized arguments: --unknown"),
 ]
 
@@ -754,8 +804,10 @@ FRAME_ERRORS = {
     "rgb-2-channels": (lambda d, r, p: (d, r[..., :2], p), r"rgb must have shape"),
     "rgb-float": (lambda d, r, p: (d, r.astype(np.float32) / 255, p), r"uint8"),
     "rgb-transposed": (lambda d, r, p: (d, r.transpose(1, 0, 2), p), r"rgb must have shape \(24, 32, 3\)"),
-    "pose-3x4": (lambda d, r, p: (d, r, p[:3]), r"cam_pose must be a finite \(4, 4\)"),
-    "pose-nan": (lambda d, r, p: (d, r, np.where(np.eye(4) > 0, np.nan, p)), r"cam_pose must be a finite"),
+    "pose-3x4": (lambda d, r, p: (d, r, p[:3]), r"cam_pose must be a \(4, 4\) camera-to-world transform, got shape \(3, 4\)"),
+    "pose-nan": (lambda d, r, p: (d, r, np.where(np.eye(4) > 0, np.nan, p)),
+                 r"cam_pose must be finite, but it holds NaN or inf at \[0, 0\] = nan, \[1, 1\] = nan, \[2, 2\] = nan, "
+                 r"\[3, 3\] = nan$"),
     "pose-strings": (lambda d, r, p: (d, r, p.astype(str)), r"cam_pose must be a numeric"),
     "pose-mirrored": (lambda d, r, p: (d, r, p * np.array([1, 1, -1, 1])), r"rigid"),
     "pose-scaled": (lambda d, r, p: (d, r, np.diag([2.0, 2, 2, 1]) @ p), r"rigid"),
@@ -936,7 +988,13 @@ def test_eval_vags_on_a_stage1_run_says_how_to_train_it(tmp_path, capsys, fake_r
     (["--threshold-sweep", "a:b:c"], r"--threshold-sweep 'a:b:c': expected START:STOP:STEP"),
     (["--threshold-sweep", "1.7:1.8"], r"expected START:STOP:STEP"),
     (["--threshold-sweep", "0:1:0"], r"STEP must be > 0"),
-    (["--threshold-sweep", "0:1000:0.001"], r"gives 1000001 values; at most 1000"),
+    (["--threshold-sweep", "0:1000:0.001"], r"gives 1,000,001 values; at most 1000"),
+    (["--threshold-sweep", "0:1e308:1e-308"], r"'0:1e308:1e-308' gives more than 10\^308 values; at most 1000"),
+    (["--threshold-sweep", "0:1:1e-320"], r"gives more than 10\^308 values"),
+    (["--plot", "fig.jpg"], r"--plot 'fig\.jpg': the plot is a PNG image; give a path ending in \.png"),
+    (["--plot", "/proc/vags_fig.png"], r"--plot '/proc/vags_fig\.png': (no permission to write|cannot write) in '/proc'"),
+    (["--record", "/proc/vags_pictures"], r"--record '/proc/vags_pictures': (no permission to write|cannot write) in "
+                                          r"'/proc'"),
     (["--threshold-sweep", "nan:1:0.1"], r"expected START:STOP:STEP"),
     (["--quantile-sweep", "0:2:0.5"], r"--quantile-sweep '0:2:0\.5': values must lie in \[0\.0, 1\.0\]"),
     (["--no-viewpoint", "--threshold", "1.7"], r"--no-viewpoint fixes the threshold at -inf"),

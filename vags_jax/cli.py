@@ -7,9 +7,11 @@ compiled or written.
 from __future__ import annotations
 
 import argparse
+import logging
 import math
 import os
 import sys
+import tempfile
 from typing import Optional
 
 
@@ -84,3 +86,26 @@ def check_parent_writable(path: str, flag: str) -> None:
         raise ValueError(f"{flag} {path!r}: {parent!r} is a file, not a directory")
     if not os.access(parent, os.W_OK | os.X_OK):
         raise ValueError(f"{flag} {path!r}: no permission to write in {parent!r}")
+    try:  # proven by writing: os.access says yes to root on read-only mounts and in /proc
+        with tempfile.NamedTemporaryFile(dir=parent, prefix=".vags_jax_write_check_"):
+            pass
+    except OSError as e:
+        raise ValueError(f"{flag} {path!r}: cannot write in {parent!r} ({first_line(e)})") from None
+
+
+def quiet_third_party(verbose: bool) -> None:
+    """Silences third-party log noise (Warp's kernel-loading lines, absl / orbax INFO chatter)
+    unless ``verbose``; our own messages and every warning or error still show."""
+    level = logging.INFO if verbose else logging.WARNING
+    for name in ("absl", "orbax", "jax._src.xla_bridge"):
+        logging.getLogger(name).setLevel(level)
+    try:
+        from absl import logging as absl_logging
+        absl_logging.set_verbosity(absl_logging.INFO if verbose else absl_logging.WARNING)
+    except ImportError:  # absl comes with orbax; without it there is nothing to silence
+        pass
+    try:
+        import warp
+        warp.config.quiet = not verbose
+    except ImportError:  # warp-lang is optional (impl "warp")
+        pass

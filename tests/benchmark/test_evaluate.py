@@ -79,6 +79,10 @@ def test_table_and_json_shape():
     assert len(table) == 4 and table[0].startswith("| objects") and "**overall**" in table[-1]
     assert "54.5" in table[2] and "66.7" in table[2] and "1.83" in table[2]
     json.dumps(_outcomes().to_json())
+    columns = [c.strip() for c in table[0].strip("|").split("|")]
+    legend = M.format_legend().splitlines()
+    assert len(legend) == len(columns)  # one line per column, in the table's order
+    assert all(line.split("  ")[1].strip() == c for line, c in zip(legend, columns)), legend
 
 
 # ----------------------------------------------------------------------------- bad inputs

@@ -192,11 +192,14 @@ def test_damaged_cache_is_named_and_remade(cfg, maker, made, data_dir):
 def test_train_stage_ggcnn_end_to_end(cfg, maker, made, data_dir, tmp_path, capsys, programs):
     ds, _ = made
     run = str(tmp_path / "run")
-    args = ["--config", "tiny", "--stage", "ggcnn", "--out", run, "--data-dir", data_dir, "--quiet", "--set", *SET]
+    args = ["--config", "tiny", "--stage", "ggcnn", "--out", run, "--data-dir", data_dir, "--quiet", "--json", "--set", *SET]
     assert train.main(args, programs) == 0
     out, err = capsys.readouterr()
     assert "reusing the cache" in err
     summary = json.loads(out.strip().splitlines()[-1])
+    with open(os.path.join(run, "summary.json")) as f:
+        assert json.load(f) == summary
+    assert "next:" in err and f"python eval.py --run {run} --policy ggcnn" in err
     assert summary["data_reused"] and summary["steps"] == 20
     gdir = os.path.join(run, "ggcnn")
     assert checkpoint.checkpoint_steps(gdir) == [20]

@@ -84,6 +84,24 @@ def test_a_second_ctrl_c_abandons_at_once():
             time.sleep(0.05)
 
 
+def test_a_second_ctrl_c_waits_for_a_protected_block():
+    """A checkpoint being written is not cut: the second Ctrl-C is held to the block's end."""
+    finished = []
+    with pytest.raises(KeyboardInterrupt):
+        with StopRequests() as stop:
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.05)
+            with stop.protected():
+                os.kill(os.getpid(), signal.SIGINT)
+                time.sleep(0.05)
+                finished.append("block")
+            finished.append("after")  # not reached: the held interrupt is raised as the block ends
+    assert finished == ["block"]
+    assert stop.abandoned_line() == "interrupted before its first checkpoint; nothing of it was saved"
+    stop.at("stage2", 6)
+    assert stop.abandoned_line() == "interrupted at stage2 iteration 6; --resume continues"
+
+
 @pytest.mark.parametrize("argv", [["--config", "tiny"], ["--config", "tiny", "--stage", "gdnet"],
                                   ["--config", "tiny", "--stage", "ggcnn"]], ids=["pipeline", "stage1", "ggcnn"])
 def test_train_refuses_a_run_directory_another_process_holds(argv, tmp_path, capsys):

@@ -2,7 +2,12 @@
 close-view planner does not use) trained a few iterations, checkpointed, resumed inside stages and at stage boundaries, compared bit for bit."""
 import json
 import os
+import re
 import shutil
+import signal
+import subprocess
+import sys
+import time
 
 import jax
 import jax.numpy as jnp
@@ -19,6 +24,8 @@ from vags_jax.nets.ggcnn import init_ggcnn
 from vags_jax.stages.stage1 import METRICS, Stage1
 
 from conftest import TINY_TEST_OVERRIDES
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 # Stages 2 and 3 as small as stage 1 (2 worlds of 1-2 objects).
 VAGS_OVERRIDES = {f"stage{n}.{k}": v for n in (2, 3) for k, v in
@@ -257,7 +264,9 @@ def test_resume_with_iterations_already_done_changes_nothing(runs, capsys, progr
     assert "already at iteration 4 of 4: nothing to train (config.json unchanged)" in capsys.readouterr().err
     # The whole pipeline is done too: --resume trains nothing and changes nothing.
     assert train.main(["--out", runs[0], "--resume", "--quiet"], programs) == 0
-    assert json.loads(capsys.readouterr().out.strip().splitlines()[-1])["stages"] == []
+    said = capsys.readouterr()
+    assert said.out == "" and f"{runs[0]} is already trained (stage1 4/4, stage2 2/2, stage3 4/4): nothing to " \
+        f"train; evaluate it with python eval.py --run {runs[0]}" in said.err
     # Stage 1 has been built on: its iterations can no longer change.
     assert train.main(["--out", runs[0], "--resume", "--quiet", "--set", "stage1.iterations=6"], programs) == 2
     assert "already started from the end of stage 1: GDNet" in capsys.readouterr().err
@@ -325,6 +334,41 @@ def test_divergence_stops_and_keeps_the_last_good_checkpoint(runs, target, tmp_p
     saved, _ = checkpoint.restore(out, target)
     good, _ = checkpoint.restore(runs[0], target, step=2)
     assert int(saved.iteration) == 2 and checkpoint.tree_equal(saved, good)
+
+
+def test_ctrl_c_stops_at_a_chunk_boundary_and_resume_matches(runs, target, tmp_path, programs):
+    """Ctrl-C sent to a stage-1 training (a subprocess, this session's compilation cache) once
+    its first metrics rows are written: the chunk in flight finishes and is checkpointed, one
+    line says where it stopped, exit code 130, the segment is in timings.jsonl; --resume to 4
+    iterations then equals the uninterrupted run's stage 1, checkpoint and metrics."""
+    out = str(tmp_path / "interrupted")
+    env = dict(os.environ, JAX_COMPILATION_CACHE_DIR=jax.config.jax_compilation_cache_dir,
+               JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS="1")
+    argv = [sys.executable, "train.py", "--config", "tiny", "--stage", "gdnet", "--chunk", "2", "--quiet",
+            "--out", out, "--set"] + _overrides(40)  # far more than it can run before the signal lands
+    proc = subprocess.Popen(argv, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    metrics_path = os.path.join(out, "metrics.jsonl")
+    while proc.poll() is None and not (os.path.exists(metrics_path) and os.path.getsize(metrics_path)):
+        time.sleep(0.02)
+    proc.send_signal(signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=600)
+    assert proc.returncode == 130, stderr
+    assert "Traceback" not in stderr and stdout == ""
+    last = stderr.strip().splitlines()[-1]
+    stopped = re.fullmatch(r"interrupted at stage1 iteration (\d+); --resume continues", last)
+    assert stopped, stderr
+    it = int(stopped.group(1))
+    assert it in (2, 4) and checkpoint.checkpoint_steps(out)[-1] == it
+    with open(os.path.join(out, "timings.jsonl")) as f:
+        seg = [json.loads(l) for l in f]
+    assert [(s["stage"], s["from"], s["to"], s["status"]) for s in seg] == [("stage1", 0, it, "interrupted")]
+    if it < 4:
+        assert train.main(["--out", out, "--resume", "--stage", "gdnet", "--chunk", "2", "--quiet", "--set",
+                           "stage1.iterations=4"], programs) == 0
+    a, _ = checkpoint.restore(out, target, step=4)
+    b, _ = checkpoint.restore(runs[0], target, step=4)
+    assert checkpoint.tree_equal(a, b), "the interrupted and resumed run diverged from the uninterrupted one"
+    assert _metrics(metrics_path)[:4] == _metrics(os.path.join(runs[0], "metrics.jsonl"))
 
 
 def test_bad_override_is_a_clear_error(tmp_path, capsys, programs):

@@ -205,6 +205,30 @@ def format_table(report: dict) -> str:
     return "\n".join(rows)
 
 
+# One line per column of ``format_table`` (docs/benchmark.md, "Metrics", defines each in full).
+TABLE_LEGEND = (
+    ("objects", "objects on the table at the start of each round of the group"),
+    ("rounds", "rounds played, one world each"),
+    ("attempts", "grasp attempts (one grasp each, after 0 or more camera moves)"),
+    ("successes", "successful grasps (an object lifted clear of the table)"),
+    ("grasp success %", "successful grasps / grasp attempts"),
+    ("clearing %", "rounds whose every object was grasped / rounds"),
+    ("motion number", "camera and gripper motions per grasped object (direct grasp 1, viewpoint move + grasp 2)"),
+    ("picks/hour", "successful grasps per hour of modelled robot time (docs/benchmark.md, time model)"),
+    ("viewpoint %", "attempts that first moved the camera to a close viewpoint"),
+    ("attempts/round", "grasp attempts per round (at most 2 x objects + benchmark.max_attempts_extra)"),
+    ("on object %", "attempts aimed at a heightmap cell that shows an object (bare table cannot succeed)"),
+    ("lost", "objects that left the table without being grasped (pushed or knocked off)"),
+    ("errors", "rounds ended by a physics failure (NaN or an object through the table)"),
+)
+
+
+def format_legend() -> str:
+    """The table's columns, one line each, to print under ``format_table``."""
+    width = max(len(k) for k, _ in TABLE_LEGEND)
+    return "\n".join(f"  {k:<{width}}  {v}" for k, v in TABLE_LEGEND)
+
+
 def save_report(report: dict, path: str, cfg: Optional[Config] = None, extra: Optional[dict] = None) -> None:
     """Writes the report (plus the config and ``extra`` metadata) as JSON."""
     data = dict(report)

@@ -18,6 +18,7 @@ from vags_jax import config as C
 from vags_jax.benchmark import metrics as M
 from vags_jax.benchmark import protocol as E
 from vags_jax.benchmark import reports
+from vags_jax.perception import render
 from vags_jax.policies import catalog as P
 from vags_jax.sim import scene
 from vags_jax.stages import checkpoint, rundir
@@ -85,9 +86,11 @@ def parse_sweep(text: str, flag: str, lo=None, hi=None) -> list[float]:
         raise ValueError(f"{flag} {text!r}: expected START:STOP:STEP, e.g. 1.70:1.80:0.01") from None
     if step <= 0 or b < a:
         raise ValueError(f"{flag} {text!r}: STEP must be > 0 and STOP >= START")
-    n = int(round((b - a) / step)) + 1
-    if n > 1000:
-        raise ValueError(f"{flag} {text!r} gives {n} values; at most 1000")
+    span = (b - a) / step  # inf when the range overflows a float
+    if not span <= 999:
+        count = f"{int(round(span)) + 1:,}" if math.isfinite(span) else "more than 10^308"
+        raise ValueError(f"{flag} {text!r} gives {count} values; at most 1000 (a larger STEP or a narrower range)")
+    n = int(round(span)) + 1
     values = [round(min(a + i * step, b), 10) for i in range(n)]
     if (lo is not None and values[0] < lo) or (hi is not None and values[-1] > hi):
         raise ValueError(f"{flag} {text!r}: values must lie in [{lo}, {hi}]")
@@ -130,12 +133,17 @@ def _check_flags(args):
     sweep_q = parse_sweep(args.quantile_sweep, "--quantile-sweep", 0.0, 1.0) if args.quantile_sweep else []
     compare = {}  # --compare is its own mode (prepare_compare); here it is always empty
     if args.plot:
+        if os.path.splitext(args.plot)[1].lower() != ".png":
+            raise ValueError(f"--plot {args.plot!r}: the plot is a PNG image; give a path ending in .png")
         cli.check_writable_file(args.plot, "--plot")
         reports.check_plot_available()
     if args.record:
         if os.path.exists(args.record) and not os.path.isdir(args.record):
             raise ValueError(f"--record {args.record!r} is a file; give a directory for the pictures")
-        cli.check_parent_writable(os.path.join(args.record, "x"), "--record")
+        try:
+            cli.check_parent_writable(os.path.join(args.record, "x"), "--record")
+        except ValueError as e:  # name the directory asked for, not the probe file inside it
+            raise ValueError(str(e).replace(repr(os.path.join(args.record, "x")), repr(args.record), 1)) from None
     if args.run and args.config:
         raise ValueError("--run uses the run's own config.json; drop --config (use --set to override)")
     if args.run is not None and not args.run:
@@ -273,7 +281,7 @@ def _run_config(args, policy):
         if policy == "gdnet":  # missing step, damaged files
             checkpoint.read(args.run, args.step, parts=["learner"])
     else:
-        run_cfg = C.preset(args.config or "tiny")
+        run_cfg = C.preset("tiny" if args.config is None else args.config)
     return run_cfg, networks, ggcnn_params, ggcnn_cfg
 
 
@@ -312,6 +320,7 @@ def prepare_eval(args) -> SimpleNamespace:
         overrides["benchmark.speed"] = args.speed
     run_cfg, networks, ggcnn_params, ggcnn_cfg = _run_config(args, policy)
     cfg = _eval_config(args, policy, run_cfg, ggcnn_cfg, overrides)
+    render.check_renderer(cfg.camera)  # the Warp renderer's GPU, before anything compiles
     rounds = cfg.benchmark.rounds if args.rounds is None else args.rounds
     groups = C.benchmark_groups(cfg) if groups is None else groups
     check_rounds_fit(cfg, rounds, len(groups))

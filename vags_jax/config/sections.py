@@ -480,12 +480,12 @@ class Camera:
         _check(0 < self.near < self.far, "Camera needs 0 < near < far")
         _check(self.renderer in ("jax", "warp"), f"Camera.renderer must be 'jax' or 'warp', got {self.renderer!r}")
         _check(self.render_batch >= 1, f"Camera.render_batch must be >= 1, got {self.render_batch}")
+        _within("Camera.width", self.width, 8, MAX_IMAGE_SIDE, "pixels")  # first: the bound below needs it
+        _within("Camera.height", self.height, 8, MAX_IMAGE_SIDE, "pixels")
         most = (2**31 - 1) // (self.width * self.height)
         _check(self.render_batch <= most,
                f"Camera.render_batch = {self.render_batch} images of {self.width} x {self.height} "
                f"overflow the int32 pixel indices of the heightmap scatter; use at most {most}")
-        _within("Camera.width", self.width, 8, MAX_IMAGE_SIDE, "pixels")
-        _within("Camera.height", self.height, 8, MAX_IMAGE_SIDE, "pixels")
         _within("Camera.fx", self.fx, 0, 1e5, "pixels", lo_open=True)
         _within("Camera.fy", self.fy, 0, 1e5, "pixels", lo_open=True)
         if self.cx is not None:

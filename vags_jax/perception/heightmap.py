@@ -49,10 +49,10 @@ def height_and_source(depth, cam_pose, cam_cfg: Camera, ws_cfg: Workspace):
     """
     b, h, w = depth.shape
     if b * h * w >= 2**31:
-        raise ValueError(
-            f"heightmaps of {b} images of {h} x {w} pixels at once overflow int32 pixel indices; "
-            f"pass fewer images per call (at most {(2**31 - 1) // (h * w)}: camera.render_batch)"
-        )
+        most = (2**31 - 1) // (h * w)
+        fix = (f"pass fewer images per call (at most {most}: camera.render_batch)" if most else
+               "even one image is too large: use a smaller image")
+        raise ValueError(f"heightmaps of {b} images of {h} x {w} pixels at once overflow int32 pixel indices; {fix}")
     n_hm = ws_cfg.heightmap_px
     cells = b * n_hm * n_hm
     flat, height, valid = point_cells(depth, cam_pose, cam_cfg, ws_cfg)
@@ -217,8 +217,12 @@ def check_frame(depth, rgb, cam_pose, cam_cfg: Camera, ws_cfg: Workspace):
         )
     if not (np.issubdtype(cam_pose.dtype, np.floating) or np.issubdtype(cam_pose.dtype, np.integer)):
         raise ValueError(f"cam_pose must be a numeric (4, 4) camera-to-world transform, got dtype {cam_pose.dtype}")
-    if cam_pose.shape != (4, 4) or not np.all(np.isfinite(cam_pose)):
-        raise ValueError(f"cam_pose must be a finite (4, 4) camera-to-world transform, got shape {cam_pose.shape}")
+    if cam_pose.shape != (4, 4):
+        raise ValueError(f"cam_pose must be a (4, 4) camera-to-world transform, got shape {cam_pose.shape}")
+    if not np.all(np.isfinite(cam_pose)):
+        bad = [f"[{i}, {j}] = {cam_pose[i, j]}" for i, j in zip(*np.nonzero(~np.isfinite(cam_pose)))]
+        raise ValueError(f"cam_pose must be finite, but it holds NaN or inf at {', '.join(bad[:4])}"
+                         + (f" and {len(bad) - 4} more" if len(bad) > 4 else ""))
     rot = cam_pose[:3, :3].astype(np.float64)
     if not np.allclose(rot.T @ rot, np.eye(3), atol=1e-4) or np.linalg.det(rot) < 0 or not np.allclose(
         cam_pose[3], [0, 0, 0, 1], atol=1e-6

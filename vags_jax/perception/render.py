@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import importlib.util
 import warnings
 from typing import Any, NamedTuple, Optional
 
@@ -586,6 +587,19 @@ def cos_incidence_at(depth, pixel, cam_cfg: Camera):
     r0 = ray(row, col)
     cos = jnp.abs(_dot3(n, r0)) / jnp.linalg.norm(r0, axis=-1)
     return jnp.where(jnp.take_along_axis(flat, pixel, axis=1) > 0, cos, 0.0)
+
+
+def check_renderer(cam_cfg: Camera) -> None:
+    """ValueError when ``cam_cfg.renderer`` cannot run on this machine (the Warp renderer needs
+    warp-lang and JAX on an NVIDIA GPU); checked before anything compiles."""
+    if cam_cfg.renderer != "warp":
+        return
+    if importlib.util.find_spec("warp") is None:
+        raise ValueError("camera.renderer=warp needs warp-lang, which is not installed: pip install "
+                         "'vags_jax[warp]' on an NVIDIA GPU machine, or use camera.renderer=jax")
+    if jax.default_backend() != "gpu":
+        raise ValueError(f"camera.renderer=warp needs an NVIDIA GPU, but JAX runs on {jax.default_backend()} here: "
+                         f"run it on a GPU machine, or use camera.renderer=jax (the ray caster, any device)")
 
 
 @dataclasses.dataclass(eq=False)

@@ -149,7 +149,7 @@ def _sim_config(args):
         raise ValueError("--run uses the run's own config.json; drop --config")
     if args.run and not os.path.isdir(args.run):
         raise ValueError(f"run directory {args.run!r} does not exist")
-    base = checkpoint.load_config(args.run) if args.run else C.preset(args.config or "tiny")
+    base = checkpoint.load_config(args.run) if args.run else C.preset("tiny" if args.config is None else args.config)
     cfg = C.replace(base, **C.parse_overrides(args.set))
     n = cfg.scene.max_objects if args.objects is None else args.objects
     if n > cfg.scene.max_objects:

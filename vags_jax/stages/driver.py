@@ -11,6 +11,7 @@ several commands (a test session) compiles each program once.
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -26,12 +27,13 @@ from vags_jax import cli
 from vags_jax import config as C
 from vags_jax.env import VagsEnv
 from vags_jax.ggcnn import data as ggcnn_data
-from vags_jax.stages import checkpoint, pipeline, requests, run_lock, rundir, stage23
+from vags_jax.stages import checkpoint, interrupts, pipeline, progress, requests, run_lock, rundir, stage23
 from vags_jax.stages import ggcnn as ggcnn_stage
 from vags_jax.stages.stage1 import Stage1
 from vags_jax.stages.stage23 import VagsStage
 
 PROG = "train.py"
+SUMMARY_FILE = "summary.json"  # the JSON summary of the last train.py command on a run
 # Stage 1's metrics that must stay finite; the run stops (exit code 1) when one is not.
 FINITE_METRICS = ("loss", "td_abs", "q_max", "q_executed")
 
@@ -77,9 +79,12 @@ def fail(message) -> int:
 # ----------------------------------------------------------------------------- GG-CNN
 
 
-def train_ggcnn_into(cfg, out: str, data_dir: str, quiet: bool, programs: Programs, chunk=None):
+def train_ggcnn_into(cfg, out: str, data_dir: str, quiet: bool, programs: Programs, chunk=None, stop=None,
+                     again: str = "--resume continues", board=None):
     """GG-CNN's data (made or reused from ``data_dir``), training, held-out accuracy and
-    checkpoint into ``out``/ggcnn -> (exit code, summary dict or None, params or None)."""
+    checkpoint into ``out``/ggcnn -> (exit code, summary dict or None, params or None).  A stop
+    request (``stop``) ends it after the data or a chunk of updates with ``stop.exit_code`` and
+    nothing saved (GG-CNN has no checkpoint mid-training; its data stays cached)."""
     t0 = time.time()
     try:
         maker = programs.data_maker(cfg)  # e.g. an unknown shape name in scene.shapes
@@ -90,17 +95,27 @@ def train_ggcnn_into(cfg, out: str, data_dir: str, quiet: bool, programs: Progra
         f"{cfg.ggcnn.train_steps} updates of batch {cfg.ggcnn.batch_size}, input {cfg.ggcnn.input_size} px, "
         f"impl={cfg.sim.impl}, devices={jax.devices()}")
     try:
-        data = ggcnn_data.load_or_make(cfg, maker, data_dir, log)
+        with progress.compile_step("GG-CNN's data (scenes, renders, grasp trials)", log):
+            data = ggcnn_data.load_or_make(cfg, maker, data_dir, log)
     except OSError as e:
         return fail(f"cannot write the GG-CNN data cache in {data_dir} ({cli.first_line(e)}); "
                     f"pass another --data-dir"), None, None
+    if stop is not None:
+        stop.at("ggcnn", None)
     try:
-        params, metrics = ggcnn_stage.train_ggcnn(cfg, data, ggcnn_stage.train_key(cfg),
-                                                  log=None if quiet else log, chunk=chunk)
+        params, metrics = (None, {"steps": 0}) if stop is not None and stop.requested else ggcnn_stage.train_ggcnn(
+            cfg, data, ggcnn_stage.train_key(cfg), log=None if quiet else log, chunk=chunk, stop=stop)
     except FloatingPointError as e:
         print(f"{PROG}: error: {e}. Stopped; nothing was saved", file=sys.stderr)
         return 1, None, None
-    acc = ggcnn_stage.heldout_accuracy(cfg, maker.env, params, maker=maker, log=log)
+    if metrics["steps"] < cfg.ggcnn.train_steps:  # stopped by Ctrl-C / SIGTERM
+        log(f"interrupted at ggcnn update {metrics['steps']}; nothing of GG-CNN was saved (its labelled views "
+            f"stay cached in {data_dir}): {again}")
+        return stop.exit_code, None, None
+    if board is not None:
+        board.rows([{"stage": "ggcnn", **r} for r in metrics["history"]], step_key="step")
+    with progress.compile_step("GG-CNN's held-out grasp trials", log):
+        acc = ggcnn_stage.heldout_accuracy(cfg, maker.env, params, maker=maker, log=log)
     info = {"steps": metrics["steps"], "training": metrics, "heldout_accuracy": acc,
             "data": dict(data.info), "wall_s": round(time.time() - t0, 1)}
     gdir = ggcnn_stage.save_ggcnn(out, params, info, cfg)
@@ -125,21 +140,46 @@ def _under_lock(out: str, run: Callable[[], int]) -> int:
         lock.release()
 
 
-def main_ggcnn(args, programs: Programs) -> int:
+def main_ggcnn(args, programs: Programs, stop, board) -> int:
     """--stage ggcnn: data (made or reused), training, held-out accuracy, checkpoint."""
     try:
         plan = requests.prepare_ggcnn(args)
     except ValueError as e:
         return fail(e)
-    return _under_lock(args.out, lambda: _ggcnn_locked(args, plan, programs))
+    return _under_lock(args.out, lambda: _ggcnn_locked(args, plan, programs, stop, board))
 
 
-def _ggcnn_locked(args, plan, programs: Programs) -> int:
+def _ggcnn_locked(args, plan, programs: Programs, stop, board) -> int:
     """The rest of ``main_ggcnn`` while the run's lock is held."""
-    code, summary, _ = train_ggcnn_into(plan.cfg, args.out, plan.data_dir, args.quiet, programs, args.chunk)
+    t0 = time.time()
+    code, summary, _ = train_ggcnn_into(plan.cfg, args.out, plan.data_dir, args.quiet, programs, args.chunk, stop,
+                                        again="the same command trains it again", board=board)
     if summary is not None:
-        print(json.dumps(summary))
+        report_end(args, summary, [summary], plan.cfg, time.time() - t0, True)
     return code
+
+
+def run_status(out: str, cfg, only: Optional[str] = None) -> dict:
+    """{stage: "done/total"} of every stage the run has or will have (a baseline's, such as
+    nbv's, when it is the one asked for or has started)."""
+    shown = rundir.ORDER + tuple(n for n in rundir.BASELINES if n == only or rundir.progress(out, n))
+    return {n: f"{rundir.progress(out, n)}/{rundir.total(cfg, n)}" for n in shown
+            if rundir.total(cfg, n) or rundir.progress(out, n)}
+
+
+def report_end(args, data: dict, summaries: list, cfg, wall_s: float, finished: bool) -> None:
+    """The end of a command: ``data`` (the JSON summary) to RUN/summary.json, and to stdout with
+    --json; the human summary and the next commands (``finished``: all this command was asked
+    to train is trained) to stdout (stderr with --json)."""
+    path = os.path.join(args.out, SUMMARY_FILE)
+    with open(path + ".tmp", "w", encoding="utf-8") as f:
+        json.dump(data, f, indent=2)
+    os.replace(path + ".tmp", path)
+    status = run_status(args.out, cfg)
+    lines = progress.closing_lines(summaries, args.out, status, wall_s, path, finished)
+    print("\n".join(lines), file=sys.stderr if args.json else sys.stdout, flush=True)
+    if args.json:
+        print(json.dumps(data), flush=True)
 
 
 # ----------------------------------------------------------------------------- chunks
@@ -159,13 +199,15 @@ def nonfinite(metrics: dict, first_iteration: int, names=FINITE_METRICS):
     return None
 
 
-def progress_line(stage, it, total, grasps, recent_success, eps, loss, rate, explored, view_share=None):
+def progress_line(stage, it, total, grasps, recent_success, eps, loss, rate, explored, view_share=None, eta=None):
+    """The progress bar's line; ``eta``: seconds left in the stage (None: not yet known)."""
     width = 24
     done = int(width * it / max(total, 1))
     view = "" if view_share is None else f"view {100 * view_share:4.1f}% | "
-    return (f"\r{stage} [{'#' * done}{'.' * (width - done)}] {it}/{total} it | {grasps} grasps | "
+    left = "ETA ?" if eta is None else f"ETA {progress.duration(eta)}"
+    return (f"\r{stage} [{'#' * done}{'.' * (width - done)}] {it}/{total} it | {left} | {grasps} grasps | "
             f"success {100 * recent_success:5.1f}% | {view}eps {eps:.3f} | explored {100 * explored:4.1f}% | "
-            f"loss {loss:.4f} | {rate:7.1f} grasps/s")
+            f"loss {loss:.4f} | {rate:7.1f} grasps/s\033[K")
 
 
 def _trim_metrics(metrics_path: str, start_it: int) -> None:
@@ -181,7 +223,9 @@ def _trim_metrics(metrics_path: str, start_it: int) -> None:
         f.writelines(lines)
 
 
-def _write_rows(path: str, name: str, m: dict, first: int, t0: float) -> None:
+def _write_rows(path: str, name: str, m: dict, first: int, t0: float) -> list:
+    """Appends one chunk's metrics rows to ``path`` -> those rows."""
+    rows = []
     with open(path, "a") as f:
         for k in range(len(m["attempts"])):
             row = {"stage": name, **{key: float(np.asarray(v)[k]) for key, v in m.items()}}
@@ -189,36 +233,51 @@ def _write_rows(path: str, name: str, m: dict, first: int, t0: float) -> None:
             row["grasp_attempts"] = int(row["attempts_total"])
             row["wall_s"] = round(time.time() - t0, 3)
             f.write(json.dumps(row) + "\n")
+            rows.append(row)
+    return rows
 
 
 def run_chunks(name: str, stage, state, start_it: int, total: int, out_dir: str, args, deadline,
-               finite=FINITE_METRICS, loss_key: str = "loss", on_save=None):
+               finite=FINITE_METRICS, loss_key: str = "loss", on_save=None, stop=None, board=None):
     """Advances a stage's state chunk by chunk from ``start_it`` to ``total`` iterations,
     logging every iteration to ``out_dir``/metrics.jsonl (with ``"stage": name``), checkpointing
-    into ``out_dir`` and stopping at ``deadline`` (a time.time() value, or None).
+    into ``out_dir`` and stopping at ``deadline`` (a time.time() value, or None) or at the first
+    chunk boundary after a stop request (``stop``: ``interrupts.StopRequests``).
     Returns (state, iteration reached, status, grasps, recent success): status is "done",
-    "out_of_time" or an error message (the learning diverged; the last good state is saved).
-    ``on_save(it, state)`` runs after every checkpoint of a good state."""
+    "out_of_time", "interrupted" or an error message (the learning diverged; the last good state
+    is saved).  ``on_save(it, state)`` runs after every checkpoint of a good state; ``board``
+    (``progress.Board``) receives every metrics row.  The first chunk says when it compiles and
+    how long that took; the progress line's ETA counts the chunks' time without compiling."""
     metrics_path = os.path.join(out_dir, "metrics.jsonl")
     _trim_metrics(metrics_path, start_it)
     chunk = args.chunk or pipeline.default_chunk(total)
     every = args.checkpoint_every or 1
     t0 = time.time()
     it, n_chunks, recent = start_it, 0, []
+    run_s, run_its = 0.0, 0  # time and iterations of the chunks, compiling excluded (the ETA)
     saved_it = start_it if start_it > 0 else None
+    if stop is not None:
+        stop.at(name, saved_it)
     grasps_done = int(jax.device_get(state.attempts))
+    guard = contextlib.nullcontext if stop is None else stop.protected  # files are never cut by a 2nd Ctrl-C
     while it < total:
         n = min(chunk, total - it)
         tc = time.time()
         good = state  # the last state whose losses and Q values were finite
-        state, m = stage.run(state, n)
-        m = jax.device_get(m)
+        with progress.compile_step(f"{name}'s chunk of {n} iterations", log if n_chunks == 0 else None) as clock:
+            state, m = stage.run(state, n)
+            m = jax.device_get(m)
         dt = time.time() - tc
-        _write_rows(metrics_path, name, m, it, t0)
+        run_s, run_its = run_s + max(dt - clock.seconds, 0.0), run_its + n
+        with guard():
+            rows = _write_rows(metrics_path, name, m, it, t0)
+            if board is not None:
+                board.rows(rows)
         diverged = nonfinite(m, it, finite)
         if diverged:
             if saved_it != it and not getattr(stage, "donates", False):  # keep the last good state
-                checkpoint.save(out_dir, it, good)
+                with guard():
+                    checkpoint.save(out_dir, it, good)
                 saved_it = it
             if not args.quiet:
                 print(file=sys.stderr)
@@ -230,20 +289,25 @@ def run_chunks(name: str, stage, state, start_it: int, total: int, out_dir: str,
         recent = (recent + list(np.asarray(m["success_rate"])))[-max(10, chunk):]
         if not args.quiet:
             print(progress_line(name, it, total, grasps_done, float(np.mean(recent)), float(m["epsilon"][-1]),
-                                float(m[loss_key][-1]), float(np.sum(m["attempts"])) / dt,
+                                float(m[loss_key][-1]), float(np.sum(m["attempts"])) / max(dt - clock.seconds, 1e-6),
                                 float(np.mean(m["explored"])),
-                                float(np.mean(m["view_share"])) if "view_share" in m else None),
+                                float(np.mean(m["view_share"])) if "view_share" in m else None,
+                                progress.eta(total - it, run_s, run_its)),
                   end="", file=sys.stderr, flush=True)
         out_of_time = deadline is not None and time.time() > deadline
-        if n_chunks % every == 0 or it >= total or out_of_time:
-            checkpoint.save(out_dir, it, state)
-            saved_it = it
-            if on_save is not None:
-                on_save(it, state)
-        if out_of_time and it < total:
+        stopping = stop is not None and stop.requested
+        if n_chunks % every == 0 or it >= total or out_of_time or stopping:
+            with guard():
+                checkpoint.save(out_dir, it, state)
+                saved_it = it
+                if stop is not None:
+                    stop.at(name, saved_it)
+                if on_save is not None:
+                    on_save(it, state)
+        if (out_of_time or stopping) and it < total:
             if not args.quiet:
                 print(file=sys.stderr)
-            return state, it, "out_of_time", grasps_done, float(np.mean(recent))
+            return state, it, "interrupted" if stopping else "out_of_time", grasps_done, float(np.mean(recent))
     if not args.quiet:
         print(file=sys.stderr)
     return state, it, "done", grasps_done, float(np.mean(recent)) if recent else None
@@ -259,12 +323,14 @@ def log_timing(out: str, name: str, start_it: int, it: int, wall_s: float, statu
 def end_of_segment(args, name: str, start_it: int, it: int, t0: float, status: str) -> bool:
     """Logs a stage segment's wall clock (timings.jsonl) and says how it ended; True when the
     learning diverged (``status`` is then the message)."""
-    ok = status in ("done", "out_of_time")
+    ok = status in ("done", "out_of_time", "interrupted")
     log_timing(args.out, name, start_it, it, time.time() - t0, status if ok else "diverged")
     if not ok:
         print(f"{PROG}: error: {status}", file=sys.stderr)
     elif status == "out_of_time":
         print(f"stopped after {args.max_minutes} min at {name} iteration {it}; --resume continues", file=sys.stderr)
+    elif status == "interrupted":
+        print(f"interrupted at {name} iteration {it}; --resume continues", file=sys.stderr)
     return not ok
 
 
@@ -293,17 +359,20 @@ def _restore_target(fns: pipeline.StageFns, cfg, name: str, gg):
     return fns.init(key, pipeline.Handover(ggcnn=gg, gdnet=gd, vanet=va, success=gd, threshold=0.0))
 
 
-def run_stage(cfg, args, name: str, done: int, h: pipeline.Handover, deadline, programs: Programs, arrays=None):
+def run_stage(cfg, args, name: str, done: int, h: pipeline.Handover, deadline, programs: Programs, arrays=None,
+              stop=None, board=None):
     """Stage ``name`` from its start (``h``, the previous stages' output) or from its checkpoint
     ``done`` (``arrays``: stage 1's, read and checked by ``requests``), trained to its
-    iterations -> (summary dict, Handover after it), or (exit code, None)."""
+    iterations or to a stop request (``stop``) -> (summary dict, Handover after it), or (exit
+    code, None).  A second Ctrl-C (KeyboardInterrupt) is logged in timings.jsonl and re-raised."""
     t0 = time.time()
     out_dir = rundir.stage_dir(args.out, name)
     st = getattr(cfg, name)
     try:
         fns = pipeline.stage_fns(name, programs.stage(name, cfg))
         if done == 0:
-            state = fns.init(rundir.stage_key(cfg, name), handover_from_disk(args.out, cfg, name, h))
+            with progress.compile_step(f"{name}'s start (first scenes and networks)", log):
+                state = fns.init(rundir.stage_key(cfg, name), handover_from_disk(args.out, cfg, name, h))
         elif name == "stage1":
             state = checkpoint.fit(args.out, done, _restore_target(fns, cfg, name, None), arrays)
         else:
@@ -325,8 +394,12 @@ def run_stage(cfg, args, name: str, done: int, h: pipeline.Handover, deadline, p
         log(f"training {rundir.DESCRIPTION[name]}: {st.n_worlds} worlds of {st.min_objects}-{st.max_objects} "
             f"objects, {st.iterations} iterations, decision threshold {float(state.threshold):.4f}, "
             f"devices={jax.devices()}")
-    state, it, status, grasps, recent = run_chunks(name, fns.program, state, done, st.iterations, out_dir, args,
-                                                   deadline, finite, loss_key, on_save)
+    try:
+        state, it, status, grasps, recent = run_chunks(name, fns.program, state, done, st.iterations, out_dir,
+                                                       args, deadline, finite, loss_key, on_save, stop, board)
+    except KeyboardInterrupt:
+        log_timing(args.out, name, done, stop.saved if stop and stop.saved else done, time.time() - t0, "abandoned")
+        raise
     if end_of_segment(args, name, done, it, t0, status):
         return 1, None
     summary = {"stage": name, "iterations": it, "grasp_attempts": grasps, "recent_success_rate": recent}
@@ -336,7 +409,7 @@ def run_stage(cfg, args, name: str, done: int, h: pipeline.Handover, deadline, p
     return summary, (fns.output(state, h) if it >= st.iterations else h)
 
 
-def main_stage1(args, programs: Programs) -> int:
+def main_stage1(args, programs: Programs, stop, board) -> int:
     """--stage gdnet (stage1): stage 1 only, fresh or resumed."""
     try:
         plan = requests.prepare_stage1(args)
@@ -345,10 +418,10 @@ def main_stage1(args, programs: Programs) -> int:
     if plan.done:
         print(plan.done, file=sys.stderr)
         return 0
-    return _under_lock(args.out, lambda: _stage1_locked(args, plan, programs))
+    return _under_lock(args.out, lambda: _stage1_locked(args, plan, programs, stop, board))
 
 
-def _stage1_locked(args, plan, programs: Programs) -> int:
+def _stage1_locked(args, plan, programs: Programs, stop, board) -> int:
     """The rest of ``main_stage1`` while the run's lock is held."""
     if not args.resume:  # a run directory with no checkpoint (a failed start) is reused: clear what it left
         leftover = os.path.join(args.out, checkpoint.CHECKPOINT_DIR)
@@ -360,16 +433,19 @@ def _stage1_locked(args, plan, programs: Programs) -> int:
     t0 = time.time()
     deadline = None if args.max_minutes is None else t0 + 60 * args.max_minutes
     summary, _ = run_stage(plan.cfg, args, "stage1", plan.step, pipeline.Handover(), deadline, programs,
-                           plan.arrays)
+                           plan.arrays, stop, board)
     if isinstance(summary, int):
         return summary
-    print(json.dumps(summary))
+    if stop.requested and summary["iterations"] < plan.cfg.stage1.iterations:
+        return stop.exit_code
+    report_end(args, summary, [summary], plan.cfg, time.time() - t0,
+               summary["iterations"] >= plan.cfg.stage1.iterations)
     return 0
 
 
 def _clear_failed_start(out: str) -> None:
     """A run directory with no checkpoint (a failed start) is reused: clear what it left."""
-    for name in ("checkpoints", "stage2", "stage3", "timings.jsonl", "metrics.jsonl"):
+    for name in ("checkpoints", "stage2", "stage3", "timings.jsonl", "metrics.jsonl", SUMMARY_FILE):
         path = os.path.join(out, name)
         if os.path.isdir(path):
             shutil.rmtree(path)
@@ -377,17 +453,24 @@ def _clear_failed_start(out: str) -> None:
             os.remove(path)
 
 
-def main_pipeline(args, only, programs: Programs) -> int:
+def main_pipeline(args, only, programs: Programs, stop, board) -> int:
     """The whole pipeline (only None: GG-CNN, stages 1, 2, 3, each from where it stopped), or
     stage 2 / 3 alone: the fold of ``vags_jax.stages.pipeline`` with its side effects."""
     try:
         plan = requests.prepare_pipeline(args, only)
     except ValueError as e:
         return fail(e)
-    return _under_lock(args.out, lambda: _pipeline_locked(args, only, plan, programs))
+    names = rundir.ORDER if only is None else (only,)
+    if not plan.fresh and all(rundir.progress(args.out, n) >= rundir.total(plan.cfg, n) for n in names):
+        status = run_status(args.out, plan.cfg, only)
+        log(f"{args.out} is already trained ({', '.join(f'{n} {p}' for n, p in status.items())}): nothing to "
+            f"train; evaluate it with python eval.py --run {args.out}, or raise STAGE.iterations with --resume "
+            f"--set to train further")
+        return 0
+    return _under_lock(args.out, lambda: _pipeline_locked(args, only, plan, programs, stop, board))
 
 
-def _pipeline_locked(args, only, plan, programs: Programs) -> int:
+def _pipeline_locked(args, only, plan, programs: Programs, stop, board) -> int:
     """The rest of ``main_pipeline`` while the run's lock is held."""
     cfg = plan.cfg
     if plan.fresh:
@@ -398,17 +481,23 @@ def _pipeline_locked(args, only, plan, programs: Programs) -> int:
     t0 = time.time()
     deadline = None if args.max_minutes is None else t0 + 60 * args.max_minutes
     summaries, h = [], pipeline.Handover()
-    for name in (rundir.ORDER if only is None else (only,)):
+    names = rundir.ORDER if only is None else (only,)
+    for name in names:
         done, want = rundir.progress(args.out, name), rundir.total(cfg, name)
         if done >= want:
             continue
         if deadline is not None and time.time() > deadline:
             print(f"stopped after {args.max_minutes} min before {name}; --resume continues", file=sys.stderr)
             break
+        if stop.requested:
+            print(f"interrupted at {name} iteration {done}; --resume continues", file=sys.stderr)
+            return stop.exit_code
         if name == "ggcnn":
             ts = time.time()
-            code, summary, params = train_ggcnn_into(cfg, args.out, plan.data_dir, args.quiet, programs)
-            log_timing(args.out, "ggcnn", 0, 1 if code == 0 else 0, time.time() - ts, "done" if code == 0 else "error")
+            code, summary, params = train_ggcnn_into(cfg, args.out, plan.data_dir, args.quiet, programs, stop=stop,
+                                                     board=board)
+            log_timing(args.out, "ggcnn", 0, 1 if code == 0 else 0, time.time() - ts,
+                       "done" if code == 0 else "interrupted" if stop.requested else "error")
             if code:
                 return code
             h = h.replace(ggcnn=params)
@@ -418,31 +507,47 @@ def _pipeline_locked(args, only, plan, programs: Programs) -> int:
             except ValueError as e:
                 return fail(e)
             arrays, plan.stage1_arrays = (plan.stage1_arrays, None) if name == "stage1" else (None, plan.stage1_arrays)
-            summary, h = run_stage(cfg, args, name, done, h, deadline, programs, arrays)
+            summary, h = run_stage(cfg, args, name, done, h, deadline, programs, arrays, stop, board)
             if isinstance(summary, int):
                 return summary
+            if stop.requested and summary["iterations"] < want:
+                return stop.exit_code
         summaries.append(summary)
         if summary.get("iterations", want) < want:  # stopped by --max-minutes
             break
-    shown = rundir.ORDER + tuple(n for n in rundir.BASELINES if n == only or rundir.progress(args.out, n))
-    status = {n: f"{rundir.progress(args.out, n)}/{rundir.total(cfg, n)}" for n in shown
-              if rundir.total(cfg, n) or rundir.progress(args.out, n)}
-    print(json.dumps({"stages": summaries, "progress": status, "wall_s": round(time.time() - t0, 1),
-                      "out": args.out}))
+    report_end(args, {"stages": summaries, "progress": run_status(args.out, cfg, only),
+                      "wall_s": round(time.time() - t0, 1), "out": args.out}, summaries, cfg, time.time() - t0,
+               all(rundir.progress(args.out, n) >= rundir.total(cfg, n) for n in names))
     return 0
 
 
 def train(args, programs: Optional[Programs] = None) -> int:
-    """Runs what the parsed ``train.py`` command line asks for -> exit code."""
+    """Runs what the parsed ``train.py`` command line asks for -> exit code.  Ctrl-C / SIGTERM
+    stop it at the next chunk boundary with a checkpoint (exit code 130 / 143); a second
+    Ctrl-C abandons the chunk in flight, keeping the last checkpoint: one line either way."""
     programs = Programs() if programs is None else programs
     stage = rundir.canonical(args.stage) if args.stage else None
-    if stage == "ggcnn":
-        return main_ggcnn(args, programs)
-    if stage == "stage1":
-        if args.data_dir is not None:
-            return fail("--data-dir is for GG-CNN (--stage ggcnn, or the whole pipeline); drop it for --stage gdnet")
-        return main_stage1(args, programs)
-    return main_pipeline(args, stage, programs)
+    if stage == "stage1" and args.data_dir is not None:
+        return fail("--data-dir is for GG-CNN (--stage ggcnn, or the whole pipeline); drop it for --stage gdnet")
+    try:
+        progress.check_tensorboard(args.tensorboard)
+    except ValueError as e:
+        return fail(e)
+    board = progress.Board(args.tensorboard) if args.tensorboard else None
+    with interrupts.StopRequests() as stop:
+        try:
+            if stage == "ggcnn":
+                return main_ggcnn(args, programs, stop, board)
+            if stage == "stage1":
+                return main_stage1(args, programs, stop, board)
+            return main_pipeline(args, stage, programs, stop, board)
+        except KeyboardInterrupt:  # a second Ctrl-C: the chunk in flight is lost, the last checkpoint kept
+            print(file=sys.stderr)
+            print(stop.abandoned_line(), file=sys.stderr)
+            return stop.exit_code
+        finally:
+            if board is not None:
+                board.close()
 
 
 __all__ = ["Programs", "train", "run_chunks", "run_stage", "nonfinite", "handover_from_disk", "FINITE_METRICS"]

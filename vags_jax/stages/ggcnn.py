@@ -31,7 +31,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from vags_jax.stages import checkpoint
+from vags_jax.stages import checkpoint, progress
 from vags_jax.config import Config
 from vags_jax.ggcnn.data import (HELDOUT_STREAM, DataMaker, GGCNNDataset, ViewSet, Views, label_sizes,
                                  stream_keys)
@@ -114,13 +114,15 @@ def _heldout_impl(params, x_all, cands: GraspCandidates, *, cfg: Config, model, 
 
 
 def train_ggcnn(cfg: Config, dataset: GGCNNDataset, key, log: Optional[Callable[[str], None]] = None,
-                chunk: Optional[int] = None):
+                chunk: Optional[int] = None, stop=None):
     """Trains GG-CNN on ``dataset`` -> ``(params, metrics)``.
 
     params: ``{"params": ...}`` of ``GGCNN()``.  metrics: ``{"history": [per chunk: step,
     loss and its four terms (mean over the chunk's updates), heldout_loss and its terms],
     "train_loss", "heldout_loss", "heldout_terms", "steps", "seconds"}``.  ``chunk``: updates
-    per jitted scan (default: about a tenth of ``ggcnn.train_steps``).
+    per jitted scan (default: about a tenth of ``ggcnn.train_steps``).  ``stop``: an
+    ``interrupts.StopRequests``; once it is requested training ends at the next chunk and
+    ``metrics["steps"]`` says how far it got (below ``train_steps``; nothing is saved).
     """
     g = cfg.ggcnn
     total = g.train_steps
@@ -139,10 +141,14 @@ def train_ggcnn(cfg: Config, dataset: GGCNNDataset, key, log: Optional[Callable[
     history = []
     t0 = time.time()
     done = 0
+    run_s = 0.0  # seconds of the chunks, compiling excluded (the ETA)
     while done < total:
-        state, k_train, m = run(state, k_train, x_train, c_train, jnp.int32(done))
+        tc = time.time()
+        with progress.compile_step(f"GG-CNN's chunk of {chunk} updates", log if done == 0 else None) as clock:
+            state, k_train, m = run(state, k_train, x_train, c_train, jnp.int32(done))
+            h = jax.device_get(held(state.params, x_held, c_held))
+        run_s += max(time.time() - tc - clock.seconds, 0.0)
         done = min(total, done + chunk)
-        h = jax.device_get(held(state.params, x_held, c_held))
         row = {"step": done, **{k: float(v) for k, v in jax.device_get(m).items()},
                "heldout_loss": float(h["loss"]), **{f"heldout_{k}": float(h[k]) for k in TERMS}}
         history.append(row)
@@ -151,9 +157,12 @@ def train_ggcnn(cfg: Config, dataset: GGCNNDataset, key, log: Optional[Callable[
                                      f"held-out {row['heldout_loss']}); lower ggcnn.learning_rate")
         if log is not None:
             log(f"GG-CNN update {done}/{total} | loss {row['loss']:.4f} | held-out loss "
-                f"{row['heldout_loss']:.4f} | {time.time() - t0:.0f} s")
+                f"{row['heldout_loss']:.4f} | {time.time() - t0:.0f} s | ETA "
+                f"{progress.duration(progress.eta(total - done, run_s, done))}")
+        if stop is not None and stop.requested:
+            break
     last = history[-1]
-    metrics = {"history": history, "steps": total, "train_loss": last["loss"], "heldout_loss": last["heldout_loss"],
+    metrics = {"history": history, "steps": done, "train_loss": last["loss"], "heldout_loss": last["heldout_loss"],
                "heldout_terms": {k: last[f"heldout_{k}"] for k in TERMS}, "seconds": round(time.time() - t0, 2)}
     return state.params, metrics
 

@@ -1,7 +1,7 @@
 """What ``train.py`` checks before anything is built, compiled or written.
 
 Each ``prepare_*`` takes the parsed command line (``args``: config, set, out, resume, stage,
-data_dir, chunk, checkpoint_every, max_minutes, quiet) and returns a plan (``SimpleNamespace``)
+data_dir, chunk, checkpoint_every, max_minutes, quiet, no_memory_check) and returns a plan (``SimpleNamespace``)
 for ``vags_jax.stages.driver``, or raises ``ValueError`` (``CheckpointError``) with one line
 saying what to fix: a bad ``--set`` value, a ``net.init`` file that is missing or does not
 fit the trunks, an ``--out`` a run would damage, a damaged or foreign run directory, a
@@ -18,13 +18,14 @@ from vags_jax import config as C
 from vags_jax.ggcnn import data as ggcnn_data
 from vags_jax.nets import check_init, make_qnet
 from vags_jax.sim import scene
-from vags_jax.stages import checkpoint, run_lock, rundir, stage1
+from vags_jax.perception import render
+from vags_jax.stages import checkpoint, memory, run_lock, rundir, stage1
 from vags_jax.stages import ggcnn as ggcnn_stage
 
 # What a run directory may hold besides its checkpoints, for --out to be reused by a fresh run
 # when it has no checkpoint yet (a run that failed before its first checkpoint).
 RUN_LEFTOVERS = ("config.json", "metrics.jsonl", "checkpoints", "ggcnn", "stage2", "stage3", "nbv", "timings.jsonl",
-                 run_lock.LOCK_FILE)
+                 "summary.json", run_lock.LOCK_FILE)
 ITERATION_KEYS = ("stage1.iterations", "stage2.iterations", "stage3.iterations")
 
 
@@ -43,6 +44,29 @@ def _check_only_run_files(out: str) -> None:
     if other:
         raise ValueError(f"--out {out!r} is a non-empty directory that is not a run of train.py "
                          f"(it holds {other[:3]}); choose a new or empty directory")
+
+
+def check_run_writable(out: str) -> None:
+    """A run to continue (--resume, --stage): it and every directory of it that training writes
+    into can be written (a run copied read-only would otherwise fail at its first checkpoint)."""
+    for sub in ("", "checkpoints", "stage2", "stage3", os.path.join("stage2", "checkpoints"),
+                os.path.join("stage3", "checkpoints"), "ggcnn"):
+        d = os.path.join(out, sub) if sub else out
+        if os.path.isdir(d):
+            try:
+                cli.check_parent_writable(os.path.join(d, "x"), "--out")
+            except ValueError:
+                raise ValueError(f"--out {out!r}: cannot write in {d!r}, so the run is read-only; make it writable "
+                                 f"(chmod -R u+w {out}) or copy it elsewhere to continue it") from None
+
+
+def check_machine(cfg, names, args) -> None:
+    """What this machine must offer the stages ``names``: the Warp renderer's GPU when the
+    config asks for it, and the memory lower bound of ``stages.memory`` (unless
+    --no-memory-check)."""
+    render.check_renderer(cfg.camera)
+    if not args.no_memory_check:
+        memory.check_fits(cfg, names, memory.device_bytes())
 
 
 def check_fresh_out(out: str) -> None:
@@ -85,8 +109,9 @@ def prepare_ggcnn(args) -> SimpleNamespace:
         raise ValueError(f"{' and '.join(given)} apply to --stage gdnet only; drop them for --stage ggcnn")
     overrides = C.parse_overrides(args.set)
     check_ggcnn_out(args.out)
-    cfg = C.replace(C.preset(args.config or "tiny"), **overrides)
+    cfg = C.replace(C.preset("tiny" if args.config is None else args.config), **overrides)
     check_ggcnn_config(cfg)
+    render.check_renderer(cfg.camera)
     return SimpleNamespace(cfg=cfg, data_dir=check_data_dir(args.data_dir))
 
 
@@ -119,9 +144,10 @@ def prepare_stage1(args) -> SimpleNamespace:
     overrides = C.parse_overrides(args.set)
     if not args.resume:
         check_fresh_out(args.out)
-        cfg = C.replace(C.preset(args.config or "tiny"), **overrides)
+        cfg = C.replace(C.preset("tiny" if args.config is None else args.config), **overrides)
         scene.build_spec(cfg)  # the scene's own checks (shape names), in milliseconds
         check_net_init(cfg)
+        check_machine(cfg, ("stage1",), args)
         return SimpleNamespace(cfg=cfg, step=0, arrays=None, done=None, raised_from=None)
 
     if args.config is not None:
@@ -149,6 +175,8 @@ def prepare_stage1(args) -> SimpleNamespace:
         done = (f"{args.out} is already at iteration {step} of {total}: nothing to train (config.json "
                 f"unchanged); pass --set stage1.iterations=N with N > {step} to train further")
         return SimpleNamespace(cfg=cfg, step=step, arrays=None, done=done, raised_from=None)
+    check_run_writable(args.out)
+    check_machine(cfg, ("stage1",), args)
     check_metrics_file(args.out)
     arrays = read_stage1_checkpoint(args.out, cfg, step)
     raised = run_cfg.stage1.iterations if asked and total != run_cfg.stage1.iterations else None
@@ -215,11 +243,12 @@ def prepare_pipeline(args, only):
     fresh = only is None and not args.resume
     if fresh:
         check_fresh_out(args.out)
-        cfg = C.replace(C.preset(args.config or "tiny"), **overrides)
+        cfg = C.replace(C.preset("tiny" if args.config is None else args.config), **overrides)
         scene.build_spec(cfg)  # the scene's own checks (an unknown shape), before anything is written
         if rundir.needs_ggcnn(cfg):
             check_ggcnn_config(cfg)
         check_net_init(cfg)
+        check_machine(cfg, rundir.ORDER, args)
         if os.path.isdir(args.out):  # a GG-CNN already trained into --out with this config is reused
             why = rundir.ggcnn_reusable(args.out, cfg)
             if why:
@@ -241,6 +270,10 @@ def prepare_pipeline(args, only):
         raise ValueError(f"run directory {args.out!r} does not exist; {hint}")
     run_cfg = checkpoint.load_config(args.out)
     cfg = C.replace(run_cfg, **overrides)
+    left = [n for n in (rundir.ORDER if only is None else (only,)) if rundir.progress(args.out, n) < rundir.total(cfg, n)]
+    if left:  # a finished run is told "nothing to train" instead
+        check_run_writable(args.out)
+        check_machine(cfg, left, args)
     if only is None and not any(rundir.progress(args.out, n) for n in rundir.ORDER):
         raise ValueError(f"{args.out} has no checkpoint yet (the run stopped before its first one); "
                          f"start it again without --resume (the directory is reused)")

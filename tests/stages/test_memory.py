@@ -1,0 +1,25 @@
+"""The memory lower bound checked before training compiles (stages/memory.py), by hand."""
+import pytest
+
+from vags_jax import config as C
+from vags_jax.stages import memory
+
+
+def test_stage_bytes_by_hand():
+    cfg = C.replace(C.tiny(), **{"workspace.heightmap_px": 32, "camera.width": 128, "camera.height": 96,
+                                 "replay.capacity": 64, "stage1.n_worlds": 3, "stage2.n_worlds": 5,
+                                 "net.n_rotations": 16, "grasp.n_rotations": 16})
+    # stage 1: replay 64 x 10 bytes x 32 x 32; Q maps 3 x 16 x 32 x 32 x 4 bytes; depth 3 x 128 x 96 x 4 bytes.
+    assert memory.stage_bytes(cfg, "stage1") == 655_360 + 196_608 + 147_456
+    # stages 2 and 3: two replays and GDNet's Q maps twice (global and fused views).
+    assert memory.stage_bytes(cfg, "stage2") == 2 * 655_360 + 2 * 327_680 + 245_760
+
+
+def test_check_fits_names_the_first_stage_that_cannot():
+    cfg = C.replace(C.tiny(), **{"stage2.n_worlds": 10_000})
+    need2 = memory.stage_bytes(cfg, "stage2")
+    assert memory.stage_bytes(cfg, "stage1") < need2
+    memory.check_fits(cfg, ("stage1", "stage2"), need2)  # exactly enough
+    memory.check_fits(cfg, ("stage1", "stage2"), None)  # unknown device memory: no check
+    with pytest.raises(ValueError, match=r"^stage2: 10,000 worlds need at least .* lower stage2\.n_worlds"):
+        memory.check_fits(cfg, ("ggcnn", "stage1", "stage2"), need2 - 1)
