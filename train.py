@@ -10,8 +10,11 @@ one stage.
     python train.py --config tiny --stage ggcnn --out runs/s1      # GG-CNN only, into a run
     python train.py --out runs/s1 --stage stage2           # stage 2 of an existing run
     python train.py --config gpu --stage gdnet --set exploration.daes=false --out runs/no_daes
+    python train.py --config tiny --stage vpg --out runs/tiny      # the VPG baseline, into runs/tiny/vpg
 
-Stages (--stage): ggcnn; stage1 (alias gdnet); stage2 (alias vanet); stage3 (alias alternate).
+Stages (--stage): ggcnn; stage1 (alias gdnet); stage2 (alias vanet); stage3 (alias alternate);
+vpg (the VPG baseline, not part of the pipeline: RUN/vpg/ holds its config.json, checkpoints/
+and metrics.jsonl; --resume continues it, and only vpg.iterations may change).
 Writes into --out: config.json; stage 1's metrics.jsonl and checkpoints/ (orbax); ggcnn/
 (checkpoints/, config.json, metrics.json); stage2/ and stage3/ (checkpoints/, metrics.jsonl);
 timings.jsonl (wall-clock of every stage segment).  Every metrics row names its stage.
@@ -39,7 +42,7 @@ from vags_jax import cli
 from vags_jax.stages import driver
 
 PROG = "train.py"
-STAGES = ("ggcnn", "stage1", "stage2", "stage3", "gdnet", "vanet", "alternate")
+STAGES = ("ggcnn", "stage1", "stage2", "stage3", "gdnet", "vanet", "alternate", "vpg")
 
 
 def parse_args(argv=None):
@@ -52,7 +55,8 @@ def parse_args(argv=None):
                    help="one stage only: ggcnn (GG-CNN, into --out/ggcnn), stage1 = gdnet (GDNet), "
                         "stage2 = vanet (VANet, GDNet frozen; needs stage 1 in --out, and GG-CNN when "
                         "vags.local_planner=ggcnn), "
-                        "stage3 = alternate (both; needs stage 2).  Default: the whole pipeline")
+                        "stage3 = alternate (both; needs stage 2); vpg (the VPG baseline's push and grasp "
+                        "nets, into --out/vpg).  Default: the whole pipeline")
     p.add_argument("--data-dir", default=None,
                    help="GG-CNN's labelled views are cached here (default ~/.cache/vags_jax/ggcnn); a run "
                         "with the same config reuses them")

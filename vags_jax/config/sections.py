@@ -872,7 +872,7 @@ class Vpg(Stage):
         _within("Vpg.push_reward", self.push_reward, 0, 100.0)
         _within("Vpg.change_cells", self.change_cells, 0, MAX_HEIGHTMAP_PX**2)
         _check(0 <= self.change_min < self.change_max,
-               f"Vpg needs 0 <= change_min < change_max metres, got {self.change_min}, {self.change_max}")
+               f"Vpg.change_min must be in [0, change_max = {self.change_max}) metres, got {self.change_min}")
 
 
 @dataclass(frozen=True)

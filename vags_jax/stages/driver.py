@@ -28,6 +28,7 @@ from vags_jax.env import VagsEnv
 from vags_jax.ggcnn import data as ggcnn_data
 from vags_jax.stages import checkpoint, pipeline, requests, run_lock, rundir, stage23
 from vags_jax.stages import ggcnn as ggcnn_stage
+from vags_jax.stages import vpg as vpg_stage
 from vags_jax.stages.stage1 import Stage1
 from vags_jax.stages.stage23 import VagsStage
 
@@ -50,7 +51,7 @@ class Programs:
         return self._built[key]
 
     def _cfg_key(self, kind: str, cfg):
-        return kind, C.replace(cfg, **{f"stage{n}.iterations": 1 for n in (1, 2, 3)})
+        return kind, C.replace(cfg, **{f"stage{n}.iterations": 1 for n in (1, 2, 3)}, **{"vpg.iterations": 1})
 
     def env(self, cfg) -> VagsEnv:
         return self.get(self._cfg_key("env", cfg), lambda: VagsEnv(cfg))
@@ -60,6 +61,10 @@ class Programs:
         make = (lambda: Stage1(cfg, self.env(cfg))) if name == "stage1" else (
             lambda: VagsStage(cfg, int(name[-1]), self.env(cfg)))
         return self.get(self._cfg_key(name, cfg), make)
+
+    def vpg(self, cfg) -> vpg_stage.VpgStage:
+        """VPG's built stage for ``cfg`` on this process's env."""
+        return self.get(self._cfg_key("vpg", cfg), lambda: vpg_stage.VpgStage(cfg, self.env(cfg)))
 
     def data_maker(self, cfg) -> ggcnn_data.DataMaker:
         """GG-CNN's data programs, shared by configs with the same ``program_key``."""
@@ -140,6 +145,48 @@ def _ggcnn_locked(args, plan, programs: Programs) -> int:
     if summary is not None:
         print(json.dumps(summary))
     return code
+
+
+def main_vpg(args, programs: Programs) -> int:
+    """--stage vpg: VPG's push and grasp nets (``stages.vpg``) into --out/vpg, fresh or resumed."""
+    try:
+        plan = requests.prepare_vpg(args)
+    except ValueError as e:
+        return fail(e)
+    if plan.done:
+        print(plan.done, file=sys.stderr)
+        return 0
+    return _under_lock(args.out, lambda: _vpg_locked(args, plan, programs))
+
+
+def _vpg_locked(args, plan, programs: Programs) -> int:
+    """The rest of ``main_vpg`` while the run's lock is held: the stage run chunk by chunk
+    (``run_chunks``: metrics, checkpoints and the deadline as stage 1's)."""
+    cfg, done, out_dir = plan.cfg, plan.step, vpg_stage.vpg_dir(args.out)
+    t0 = time.time()
+    deadline = None if args.max_minutes is None else t0 + 60 * args.max_minutes
+    try:
+        program = programs.vpg(cfg)
+        state = program.init(vpg_stage.stage_key(cfg))
+        if done:
+            state, _ = checkpoint.restore(out_dir, state, done)
+            print(f"resumed {out_dir} at iteration {done}", file=sys.stderr)
+    except ValueError as e:  # CheckpointError: a damaged or foreign checkpoint
+        return fail(e)
+    if not done:  # a VPG directory with no checkpoint (a failed start) is reused: clear what it left
+        shutil.rmtree(out_dir, ignore_errors=True)
+    os.makedirs(out_dir, exist_ok=True)
+    checkpoint.save_config(out_dir, cfg)
+    v = cfg.vpg
+    log(f"training VPG (push and grasp nets): {v.n_worlds} worlds of {v.min_objects}-{v.max_objects} objects, "
+        f"{v.iterations} iterations, impl={cfg.sim.impl}, trunk={cfg.net.trunk}, devices={jax.devices()}")
+    state, it, status, actions, recent = run_chunks("vpg", program, state, done, v.iterations, out_dir, args,
+                                                    deadline)
+    if end_of_segment(args, "vpg", done, it, t0, status):
+        return 1
+    print(json.dumps({"stage": "vpg", "iterations": it, "actions": actions, "recent_grasp_success_rate": recent,
+                      "wall_s": round(time.time() - t0, 1), "out": out_dir}))
+    return 0
 
 
 # ----------------------------------------------------------------------------- chunks
@@ -434,6 +481,8 @@ def _pipeline_locked(args, only, plan, programs: Programs) -> int:
 def train(args, programs: Optional[Programs] = None) -> int:
     """Runs what the parsed ``train.py`` command line asks for -> exit code."""
     programs = Programs() if programs is None else programs
+    if args.stage == "vpg":  # VPG, the baseline: not a stage of the VAGS pipeline
+        return main_vpg(args, programs)
     stage = rundir.canonical(args.stage) if args.stage else None
     if stage == "ggcnn":
         return main_ggcnn(args, programs)
@@ -444,4 +493,4 @@ def train(args, programs: Optional[Programs] = None) -> int:
     return main_pipeline(args, stage, programs)
 
 
-__all__ = ["Programs", "train", "run_chunks", "run_stage", "nonfinite", "handover_from_disk", "FINITE_METRICS"]
+__all__ = ["Programs", "train", "main_vpg", "run_chunks", "run_stage", "nonfinite", "handover_from_disk", "FINITE_METRICS"]
