@@ -11,11 +11,14 @@
     python eval.py --run runs/gpu --no-viewpoint        # VAGS without VANet: GDNet alone
     python eval.py --run runs/gpu --threshold-sweep 1.70:1.80:0.01 --quantile-sweep 0:1:0.1 --plot runs/gpu/fig.png
     python eval.py --run runs/gpu --record runs/gpu/pictures --groups 3,10
+    python eval.py --run runs/gpu --policy vpg          # VPG of train.py --stage vpg (pushes and grasps)
 
 Policies: vags (the default for a run with stage 2 or 3 networks: GDNet, VANet, GG-CNN and
 the run's decision threshold, or --threshold), gdnet (the default for a stage-1 run; --step
 picks a checkpoint), ggcnn and ggcnn-close (need --run with a GG-CNN from train.py --stage
-ggcnn), random, highest, heuristic (see vags_jax/benchmark/protocol.py).  --no-viewpoint runs VAGS with
+ggcnn), vpg (needs --run with VPG's nets from train.py --stage vpg: the argmax over its push and
+grasp maps; a push is one motion and no grasp attempt), random, highest, heuristic (see
+vags_jax/policies/catalog.py).  --no-viewpoint runs VAGS with
 its GDNet alone (threshold -inf: the paper's "w/o VANet" ablation).  --threshold-sweep A:B:STEP
 evaluates VAGS at each absolute threshold (paper Fig. 6), --quantile-sweep A:B:STEP at the
 quantiles of the largest GDNet Q that VAGS saw at its decisions in the main run (our Q scale
@@ -57,7 +60,7 @@ def parse_args(argv=None):
     p = cli.ArgumentParser(prog=PROG, description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--run", default=None, help="run directory written by train.py (config.json + checkpoints/)")
     p.add_argument("--policy", default=None,
-                   help="vags | gdnet | ggcnn | ggcnn-close | random | highest | heuristic (default: vags for "
+                   help="vags | gdnet | ggcnn | ggcnn-close | vpg | random | highest | heuristic (default: vags for "
                         "a run with stage 2 or 3, gdnet for a stage-1 run, else heuristic)")
     p.add_argument("--threshold", type=float, default=None,
                    help="vags: the decision threshold (default: the run's, stored by stage 2)")
@@ -88,7 +91,8 @@ def parse_args(argv=None):
     p.add_argument("--seeds", default=None, metavar="S1,S2,...",
                    help="several seeds, each a full table, compiled once: --out must hold {seed} (default: "
                         "RUN/eval_<policy>_seed<S>.json); prints each seed's overall figures and their mean")
-    p.add_argument("--step", type=cli.int_in(0), default=None, help="checkpoint step for gdnet (default: latest)")
+    p.add_argument("--step", type=cli.int_in(0), default=None,
+                   help="checkpoint step for gdnet, vags or vpg (default: latest)")
     p.add_argument("--out", default=None, help="JSON report path (default: RUN/eval_<policy>.json)")
     p.add_argument("--speed", type=cli.positive_float(100.0), default=None,
                    help="motion-time model: gripper speed m/s (default benchmark.speed, 0.5)")
@@ -119,7 +123,8 @@ def main(argv=None) -> int:
     log(f"evaluating {name}{source}: groups {groups}, {rounds} rounds each, impl={cfg.sim.impl}, "
         f"devices={jax.devices()}")
     ev = E.Evaluator(cfg)
-    pol = P.make_policy(policy, cfg, plan.variables, plan.ggcnn_params, networks, threshold)
+    pol = P.make_policy(policy, cfg, plan.variables, plan.ggcnn_params, networks, threshold,
+                        vpg_variables=plan.vpg_variables)
     if policy == "vags":
         pol = dataclasses.replace(pol, name=name)
     extra = {"run": args.run, "checkpoint_step": step}

@@ -26,6 +26,9 @@ an action ``(B, 3) int32 [rotation, row, col]`` on the global heightmaps (1 moti
   baseline).  ``ggcnn-close``: move the camera 25 cm above the ``highest`` cell, take a depth
   image there and grasp at GG-CNN's best grasp, 2 motions.  Both need a GG-CNN trained by
   ``train.py --stage ggcnn``.
+* ``vpg``: the VPG baseline (``vags_jax.policies.vpg``): the argmax over its push and grasp Q
+  maps on the global view; a push is one motion and no grasp attempt.  ``params`` = VPGNet's
+  ``{"params", "batch_stats"}`` from ``train.py --stage vpg`` (``stages.vpg.load_vpg``).
 """
 from __future__ import annotations
 
@@ -42,8 +45,9 @@ from vags_jax.ggcnn.planner import predict_grasp
 from vags_jax.nets import make_qnet
 from vags_jax.nets.ggcnn import GGCNN
 from vags_jax.policies.decision import VagsNets, gate_threshold
+from vags_jax.policies.vpg import vpg_plan
 
-POLICIES = ("vags", "gdnet", "ggcnn", "ggcnn-close", "random", "highest", "heuristic")
+POLICIES = ("vags", "gdnet", "ggcnn", "ggcnn-close", "vpg", "random", "highest", "heuristic")
 
 
 @dataclass(frozen=True)
@@ -56,13 +60,15 @@ class Policy:
     after a viewpoint move 2).  ``params``: a pytree passed to the compiled loop as an argument
     (network weights), or None.  ``act``: for policies that choose a heightmap action on the
     global view, ``(params, key, state) -> action (B, 3) int32 [rotation, row, col]`` (``plan``
-    executes it, 1 motion); None for the others.
+    executes it, 1 motion); None for the others.  ``pushes``: the plan's attempts may push
+    (``Attempt.push``; VPG), which the benchmark then executes and counts.
     """
 
     name: str
     plan: Callable
     params: Any = None
     act: Optional[Callable] = None
+    pushes: bool = False
 
 
 def heightmap_policy(name: str, act: Callable, params: Any = None) -> Policy:
@@ -250,11 +256,13 @@ def gdnet_act(cfg: Config) -> Callable:
 
 
 def make_policy(name: str, cfg: Config, gdnet_variables: Any = None, ggcnn_params: Any = None,
-                vags_networks: Any = None, threshold: Optional[float] = None) -> Policy:
+                vags_networks: Any = None, threshold: Optional[float] = None,
+                vpg_variables: Any = None) -> Policy:
     """Policy by name (``POLICIES``); ``gdnet`` needs ``gdnet_variables`` ({"params",
     "batch_stats"}, e.g. from ``load_gdnet``); ``ggcnn`` / ``ggcnn-close`` need
     ``ggcnn_params`` ({"params"}, e.g. from ``ggcnn_stage.load_ggcnn``); ``vags`` needs
-    ``vags_networks`` (``pipeline.load_vags``) and takes ``threshold`` (default: the run's)."""
+    ``vags_networks`` (``pipeline.load_vags``) and takes ``threshold`` (default: the run's);
+    ``vpg`` needs ``vpg_variables`` (``stages.vpg.load_vpg``)."""
     if name not in POLICIES:
         raise ValueError(f"unknown policy {name!r}; choose one of {', '.join(POLICIES)}")
     if name == "vags":
@@ -262,6 +270,11 @@ def make_policy(name: str, cfg: Config, gdnet_variables: Any = None, ggcnn_param
             raise ValueError("policy 'vags' needs the trained networks of a run (eval.py --run RUN after "
                              "train.py's stage 2 or 3), or pass vags_networks")
         return Policy("vags", vags_plan(cfg), vags_params(vags_networks, cfg, threshold))
+    if name == "vpg":
+        if vpg_variables is None:
+            raise ValueError("policy 'vpg' needs VPG's trained networks: evaluate a run with train.py --stage vpg "
+                             "(eval.py --run RUN --policy vpg) or pass vpg_variables")
+        return Policy("vpg", vpg_plan(cfg), vpg_variables, pushes=True)
     if name == "gdnet":
         if gdnet_variables is None:
             raise ValueError("policy 'gdnet' needs trained GDNet variables: evaluate a run "
