@@ -13,6 +13,7 @@
     python eval.py --run runs/gpu --threshold-sweep 1.70:1.80:0.01 --quantile-sweep 0:1:0.1 --plot runs/gpu/fig.png
     python eval.py --run runs/gpu --record runs/gpu/pictures --groups 3,10
     python eval.py --run runs/gpu --policy mvp                   # Multi-View Picking (GG-CNN of the run)
+    python eval.py --run runs/gpu --policy vpg          # VPG of train.py --stage vpg (pushes and grasps)
     python eval.py --run runs/gpu --compare vags ggcnn mvp nbv --plot runs/gpu/fig7.png   # Table 1
 
 --compare METHOD ...: every method on the same scenes and seed in one environment; prints Table 1
@@ -23,7 +24,9 @@ Policies: vags (the default for a run with stage 2 or 3 networks: GDNet, VANet, 
 the run's decision threshold, or --threshold), gdnet (the default for a stage-1 run; --step
 picks a checkpoint), ggcnn and ggcnn-close (need --run with a GG-CNN from train.py --stage
 ggcnn), mvp (Multi-View Picking with the run's GG-CNN), nbv (the next-best-view baseline of
-train.py --stage nbv), random, highest, heuristic (see vags_jax/benchmark/protocol.py).  --no-viewpoint runs VAGS with
+train.py --stage nbv), vpg (needs --run with VPG's nets from train.py --stage vpg: the argmax
+over its push and grasp maps; a push is one motion and no grasp attempt), random, highest,
+heuristic (see vags_jax/policies/catalog.py).  --no-viewpoint runs VAGS with
 its GDNet alone (threshold -inf: the paper's "w/o VANet" ablation).  --threshold-sweep A:B:STEP
 evaluates VAGS at each absolute threshold (paper Fig. 6), --quantile-sweep A:B:STEP at the
 quantiles of the largest GDNet Q that VAGS saw at its decisions in the main run (our Q scale
@@ -67,7 +70,7 @@ def parse_args(argv=None):
     p = cli.ArgumentParser(prog=PROG, description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--run", default=None, help="run directory written by train.py (config.json + checkpoints/)")
     p.add_argument("--policy", default=None,
-                   help="vags | gdnet | ggcnn | ggcnn-close | random | highest | heuristic (default: vags for "
+                   help="vags | gdnet | ggcnn | ggcnn-close | vpg | random | highest | heuristic (default: vags for "
                         "a run with stage 2 or 3, gdnet for a stage-1 run, else heuristic)")
     p.add_argument("--threshold", type=float, default=None,
                    help="vags: the decision threshold (default: the run's, stored by stage 2)")
@@ -100,7 +103,8 @@ def parse_args(argv=None):
     p.add_argument("--seeds", default=None, metavar="S1,S2,...",
                    help="several seeds, each a full table, compiled once: --out must hold {seed} (default: "
                         "RUN/eval_<policy>_seed<S>.json); prints each seed's overall figures and their mean")
-    p.add_argument("--step", type=cli.int_in(0), default=None, help="checkpoint step for gdnet (default: latest)")
+    p.add_argument("--step", type=cli.int_in(0), default=None,
+                   help="checkpoint step for gdnet, vags or vpg (default: latest)")
     p.add_argument("--out", default=None, help="JSON report path (default: RUN/eval_<policy>.json)")
     p.add_argument("--speed", type=cli.positive_float(100.0), default=None,
                    help="motion-time model: gripper speed m/s (default benchmark.speed, 0.5)")
@@ -120,7 +124,8 @@ def parse_args(argv=None):
 def policy_of(plan, args):
     """The policy of a checked plan (``requests.prepare_eval``), named as in its report."""
     threshold = -math.inf if args.no_viewpoint else args.threshold
-    pol = P.make_policy(plan.policy, plan.cfg, plan.variables, plan.ggcnn_params, plan.networks, threshold)
+    pol = P.make_policy(plan.policy, plan.cfg, plan.variables, plan.ggcnn_params, plan.networks, threshold,
+                        vpg_variables=plan.vpg_variables)
     return dataclasses.replace(pol, name=plan.name)
 
 

@@ -10,9 +10,12 @@ one stage.
     python train.py --config tiny --stage ggcnn --out runs/s1      # GG-CNN only, into a run
     python train.py --out runs/s1 --stage stage2           # stage 2 of an existing run
     python train.py --config gpu --stage gdnet --set exploration.daes=false --out runs/no_daes
+    python train.py --config tiny --stage vpg --out runs/tiny      # the VPG baseline, into runs/tiny/vpg
 
-Stages (--stage): ggcnn; stage1 (alias gdnet); stage2 (alias vanet); stage3 (alias alternate); nbv
-(the NBV baseline of eval.py --policy nbv, into --out/nbv; never part of the whole pipeline).
+Stages (--stage): ggcnn; stage1 (alias gdnet); stage2 (alias vanet); stage3 (alias alternate); and
+two baselines, never part of the whole pipeline: nbv (the NBV baseline of eval.py --policy nbv,
+into --out/nbv) and vpg (the VPG baseline: RUN/vpg/ holds its config.json, checkpoints/ and
+metrics.jsonl; --resume continues it, and only vpg.iterations may change).
 Writes into --out: config.json; stage 1's metrics.jsonl and checkpoints/ (orbax); ggcnn/
 (checkpoints/, config.json, metrics.json); stage2/ and stage3/ (checkpoints/, metrics.jsonl);
 timings.jsonl (wall-clock of every stage segment); summary.json (the closing summary, printed as
@@ -48,7 +51,7 @@ from vags_jax import cli
 from vags_jax.stages import driver
 
 PROG = "train.py"
-STAGES = ("ggcnn", "stage1", "stage2", "stage3", "gdnet", "vanet", "alternate", "nbv")
+STAGES = ("ggcnn", "stage1", "stage2", "stage3", "gdnet", "vanet", "alternate", "nbv", "vpg")
 
 
 def parse_args(argv=None):
@@ -63,7 +66,8 @@ def parse_args(argv=None):
                         "vags.local_planner=ggcnn), "
                         "stage3 = alternate (both; needs stage 2); nbv (the NBV baseline's viewpoint network, "
                         "trained as VANet but always moving; needs stage 1, and GG-CNN when "
-                        "vags.local_planner=ggcnn).  Default: the whole pipeline (without nbv)")
+                        "vags.local_planner=ggcnn); vpg (the VPG baseline's push and grasp nets, into "
+                        "--out/vpg).  Default: the whole pipeline (without nbv and vpg)")
     p.add_argument("--data-dir", default=None,
                    help="GG-CNN's labelled views are cached here (default ~/.cache/vags_jax/ggcnn); a run "
                         "with the same config reuses them")

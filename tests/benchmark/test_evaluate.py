@@ -109,7 +109,7 @@ def test_cli_errors(tmp_path, capsys):
         return capsys.readouterr().err
 
     assert "does not exist" in err(["--run", str(tmp_path / "nope")])
-    assert "unknown policy" in err(["--policy", "vpg"])
+    assert "unknown policy" in err(["--policy", "nbv-unknown"])
     assert "needs --run" in err(["--policy", "gdnet"])
     assert "scene.max_objects = 3" in err(["--config", "tiny", "--policy", "random", "--groups", "1-10"])
     assert "--groups" in err(["--config", "tiny", "--policy", "random", "--groups", "1-x"])

@@ -44,3 +44,15 @@ def test_lift_hold_is_a_share_of_the_lift(bad):
     assert C.replace(C.Config(), **{"grasp.lift_hold": 0.0}).grasp.lift_hold == 0.0
     with pytest.raises(ValueError, match=r"grasp\.lift_hold must be in \[0, 1\)"):
         C.replace(C.Config(), **{"grasp.lift_hold": bad})
+
+
+def test_vpg_and_push_sections_are_checked():
+    cfg = C.tiny()
+    with pytest.raises(ValueError, match=r"vpg.change_min must be in \[0, change_max = 0.3\) metres, got 0.3"):
+        C.replace(cfg, **{"vpg.change_min": 0.3, "vpg.change_max": 0.3})
+    with pytest.raises(ValueError, match=r"push.length must be in \(0, 0.5\] metres"):
+        C.replace(cfg, **{"push.length": 0.0})
+    # The stage's objects against the scene are checked when VPG trains, not for every config.
+    small = C.replace(cfg, **{"vpg.max_objects": 5})
+    with pytest.raises(ValueError, match=r"vpg.max_objects \(5\) exceeds scene.max_objects \(3\)"):
+        C.check_vpg_fits(small)

@@ -6,7 +6,7 @@ Per group and ``overall`` (pooled over every round of every group), ``summarize`
 * scene clearing rate = cleared rounds / rounds, a round is *cleared* when every one of its
   objects was grasped (objects pushed off the workspace do not count as cleared);
 * motion number = camera-or-gripper motions / successfully grasped objects (1 per direct grasp,
-  2 per grasp after a viewpoint move);
+  2 per grasp after a viewpoint move, 1 per push);
 * picks per hour = successful grasps / hours of modelled robot time (``MotionTimeModel``);
 
 and diagnostics beside them: the share of attempts that moved the camera first
@@ -95,6 +95,8 @@ class RoundOutcomes:
     failure (NaN / tunnelling) ended the round; overflow: a warp contact buffer was full at some step (results unreliable).
     scores: (R, T) the planner's decision value of each attempt (``Attempt.score``; VAGS: GDNet's
     largest Q), NaN after the round's last attempt or for planners without one.
+    pushes: pushes (VPG: one motion each, no grasp attempt; ``attempts`` counts grasps only),
+    None for policies that never push.
     """
 
     n_objects: Any
@@ -109,6 +111,7 @@ class RoundOutcomes:
     error: Any
     overflow: Any
     scores: Any = None
+    pushes: Any = None
 
     @property
     def cleared(self) -> np.ndarray:
@@ -172,6 +175,7 @@ def summarize(out: RoundOutcomes, time_model: MotionTimeModel = MotionTimeModel(
         "objects_lost": int(np.sum(out.lost)),
         "physics_errors": int(np.sum(out.error)),
         "buffer_overflows": int(np.sum(out.overflow)),
+        **({} if out.pushes is None else {"pushes": int(np.sum(out.pushes))}),
     }
 
 
@@ -188,8 +192,9 @@ def _num(x, fmt="{:.2f}") -> str:
 
 def format_table(report: dict) -> str:
     """Markdown table: one row per group and one for the pooled overall."""
+    pushes = "pushes" in report["overall"]  # a policy that pushes (VPG): one more column
     head = ("| objects | rounds | attempts | successes | grasp success % | clearing % | motion number "
-            "| picks/hour | viewpoint % | attempts/round | on object % | lost | errors |")
+            "| picks/hour | viewpoint % | attempts/round | on object % | lost | errors |" + (" pushes |" if pushes else ""))
     rows = [head, "|" + "|".join(["---:"] * (head.count("|") - 1)) + "|"]
 
     def row(name, m):
@@ -197,7 +202,8 @@ def format_table(report: dict) -> str:
                 f"{_pct(m['grasp_success_rate'])} | {_pct(m['clearing_rate'])} | {_num(m['motion_number'])} | "
                 f"{_num(m['picks_per_hour'], '{:.0f}')} | {_pct(m.get('viewpoint_rate'))} | "
                 f"{_num(m['attempts_per_round'], '{:.1f}')} | "
-                f"{_pct(m['on_object_rate'])} | {m['objects_lost']} | {m['physics_errors']} |")
+                f"{_pct(m['on_object_rate'])} | {m['objects_lost']} | {m['physics_errors']} |"
+                + (f" {m['pushes']} |" if pushes else ""))
 
     for m in report["groups_metrics"]:
         rows.append(row(str(m["n_objects"]), m))

@@ -11,7 +11,9 @@ over; a finished world's state is frozen (its physics may still be computed, its
 dropped), so the per-world counters of ``EnvState`` are exactly the round's.
 
 Policies (``vags_jax.policies.catalog``) plan one attempt per world; metrics, the time model
-and the report table are ``vags_jax.benchmark.metrics``.
+and the report table are ``vags_jax.benchmark.metrics``.  A policy that pushes (``vpg``,
+``Policy.pushes``) is stepped by ``vags_jax.env.push.step_with_pushes``: a push is one motion
+and no grasp attempt, counted in ``RoundOutcomes.pushes`` and in the round's budget.
 
 Reproducible: the scenes of group ``k`` come from ``jax.random.fold_in(PRNGKey(seed), k)``,
 one key per round, so adding or removing other groups does not change them (changing the
@@ -34,6 +36,7 @@ from flax import struct
 from vags_jax.benchmark.metrics import MotionTimeModel, RoundOutcomes, summarize
 from vags_jax.config import Config, benchmark_groups
 from vags_jax.env import EnvState, VagsEnv, where_worlds
+from vags_jax.env.push import step_with_pushes
 from vags_jax.perception import camera
 from vags_jax.policies.catalog import Policy
 
@@ -48,6 +51,7 @@ class _Carry:
     return_travel: jax.Array  # (B,) float32
     on_object: jax.Array  # (B,) int32
     viewpoints: jax.Array  # (B,) int32
+    pushes: jax.Array  # (B,) int32 (policies that push: VPG)
     scores: jax.Array  # (B, T) float32, NaN where no attempt was made
     key: jax.Array
     t: jax.Array  # () int32
@@ -90,10 +94,13 @@ class Evaluator:
         self._reset_worlds = jax.jit(self.env.step_reset_worlds)
         self._start = np.asarray(cfg.camera.global_position, np.float32)
 
+    # Long (one reason): the while loop's body and its bookkeeping share one closure.
     def _rounds_impl(self, policy: Policy, params, key: jax.Array, s0: EnvState):
         """Plays B fresh rounds to their end: key (2,), s0 from ``VagsEnv.reset`` -> RoundOutcomes
         of (B,) arrays.  (The reset is its own compiled program, the same as ``VagsEnv.reset``'s, so
-        that a persistent compilation cache can share it with training.)"""
+        that a persistent compilation cache can share it with training.)  ``policy.pushes``: the
+        plan's attempts may push (``Attempt.push``): a push is one motion and no grasp
+        attempt, and a round's budget of ``2 * objects + extra`` counts pushes and grasps."""
         env, cfg = self.env, self.cfg
         g, tz = cfg.grasp, cfg.workspace.table_z
         B = s0.n_worlds
@@ -101,6 +108,7 @@ class Evaluator:
         budget = jnp.max(env.max_attempts(s0.sim.n_objects, extra))
         T = 2 * cfg.scene.max_objects + extra  # the largest budget any round can have
         noise = cfg.camera.noise.enabled
+        pushes = policy.pushes
 
         def cond(c: _Carry):
             return (~c.done.all()) & (c.t < budget)
@@ -111,7 +119,12 @@ class Evaluator:
                 attempt = policy.plan(params, k_act, env, c.env)
             else:
                 attempt = policy.plan(params, k_act, env, c.env, c.memory)
-            s2, res = env.step_attempt(c.env, attempt, k_obs if noise else None)
+            if pushes:
+                s2, res, pushed = step_with_pushes(env, c.env, attempt, k_obs if noise else None)
+                push = attempt.push
+            else:
+                s2, res = env.step_attempt(c.env, attempt, k_obs if noise else None)
+                push = jnp.zeros((B,), bool)
             memory = None if c.memory is None else policy.remember(c.memory, attempt, res.success)
             # Finished worlds keep their state: their outcome is ignored.
             keep = c.done
@@ -119,25 +132,30 @@ class Evaluator:
             position = attempt.position
             lifted = jnp.stack([position[:, 0], position[:, 1],
                                 jnp.maximum(position[:, 2], tz + g.min_height_above_table) + g.lift_height], 1)
+            if pushes:  # a push returns from where its lift ended
+                lifted = jnp.where(push[:, None], pushed.end, lifted)
             back = jnp.linalg.norm(lifted - self._start, axis=1)
             ret = c.return_travel + jnp.where(keep | res.success, 0.0, back)
             pixel = camera.world_xy_to_pixel(position[:, :2], cfg.workspace)
             inside = camera.in_workspace(pixel, cfg.workspace)
             pixel = jnp.clip(pixel, 0, cfg.workspace.heightmap_px - 1)
             aimed = inside & (c.env.height[jnp.arange(B), pixel[:, 0], pixel[:, 1]] > cfg.exploration.height_threshold)
-            on_obj = c.on_object + (aimed & ~keep).astype(jnp.int32)
+            on_obj = c.on_object + (aimed & ~keep & ~push).astype(jnp.int32)
+            n_push = c.pushes + (push & ~keep).astype(jnp.int32)
             views = c.viewpoints + ((attempt.motions > 1) & ~keep).astype(jnp.int32)
             scores = c.scores
             if attempt.score is not None:
                 score = jnp.where(keep, jnp.nan, attempt.score.astype(jnp.float32))
                 scores = scores.at[:, jnp.minimum(c.t, T - 1)].set(score)
             done = keep | env.round_over(s2, extra) | s2.sim.error
+            if pushes:
+                done = done | (s2.attempts + n_push >= env.max_attempts(s2.sim.n_objects, extra))
             return _Carry(env=s2, done=done, return_travel=ret, on_object=on_obj, viewpoints=views,
-                          scores=scores, key=key, t=c.t + 1, memory=memory)
+                          pushes=n_push, scores=scores, key=key, t=c.t + 1, memory=memory)
 
         zi = jnp.zeros((B,), jnp.int32)
         c0 = _Carry(env=s0, done=env.round_over(s0, extra) | s0.sim.error,
-                    return_travel=jnp.zeros((B,), jnp.float32), on_object=zi, viewpoints=zi,
+                    return_travel=jnp.zeros((B,), jnp.float32), on_object=zi, viewpoints=zi, pushes=zi,
                     scores=jnp.full((B, T), jnp.nan, jnp.float32), key=key, t=jnp.zeros((), jnp.int32),
                     memory=None if policy.init_memory is None else policy.init_memory(B))
         c = jax.lax.while_loop(cond, body, c0)
@@ -145,7 +163,8 @@ class Evaluator:
         out = RoundOutcomes(
             n_objects=s.sim.n_objects, attempts=s.attempts, successes=s.successes, motions=s.motions,
             travel=s.travel, return_travel=c.return_travel, remaining=env.n_remaining(s), on_object=c.on_object,
-            viewpoints=c.viewpoints, error=s.sim.error, overflow=s.sim.overflow, scores=c.scores)
+            viewpoints=c.viewpoints, error=s.sim.error, overflow=s.sim.overflow, scores=c.scores,
+            pushes=c.pushes if pushes else None)
         return out
 
     def run_group(self, policy: Policy, key, n_objects: int, rounds: int) -> RoundOutcomes:

@@ -23,6 +23,7 @@ from vags_jax.policies import catalog as P
 from vags_jax.sim import scene
 from vags_jax.stages import checkpoint, rundir
 from vags_jax.stages.ggcnn import ggcnn_dir, load_ggcnn
+from vags_jax.stages.vpg import load_vpg
 
 MAX_GROUP = 1000  # object counts above this are refused while parsing --groups
 
@@ -109,7 +110,7 @@ def _check_flags(args):
         policy = args.policy or ("vags" if run_has_vags(args.run) else "gdnet")
     else:
         policy = args.policy or ("gdnet" if args.run else "heuristic")
-    if policy in ("vags", "gdnet", "nbv") + P.GGCNN_POLICIES and not args.run:
+    if policy in ("vags", "gdnet", "nbv", "vpg") + P.GGCNN_POLICIES and not args.run:
         raise ValueError(f"policy {policy} needs --run RUN_DIR (a run written by train.py)")
     vags_only = [f for f, v in (("--threshold", args.threshold is not None), ("--no-viewpoint", args.no_viewpoint),
                                 ("--threshold-sweep", args.threshold_sweep), ("--quantile-sweep", args.quantile_sweep),
@@ -152,8 +153,8 @@ def _check_flags(args):
         raise ValueError(f"--run {args.run!r} is a file; give the run directory train.py wrote")
     if args.run and not os.path.isdir(args.run):
         raise ValueError(f"run directory {args.run!r} does not exist")
-    if args.step is not None and policy not in ("gdnet", "vags"):
-        raise ValueError(f"--step selects a gdnet or vags checkpoint; policy {policy!r} uses none: drop --step")
+    if args.step is not None and policy not in ("gdnet", "vags", "vpg"):
+        raise ValueError(f"--step selects a gdnet, vags or vpg checkpoint; policy {policy!r} uses none: drop --step")
     if args.out is not None:
         for seed in seeds:
             cli.check_writable_file(args.out if args.seeds is None else seed_path(args.out, seed), "--out")
@@ -295,7 +296,7 @@ def _eval_config(args, policy, run_cfg, ggcnn_cfg, overrides):
                            "scene.copies_per_shape": 1})
     cfg = C.replace(run_cfg, **scene_over, **overrides)
     scene.build_spec(cfg)  # the scene's own checks (shape names), in milliseconds
-    if policy in ("gdnet", "vags", "nbv") and (cfg.net != run_cfg.net or cfg.workspace != run_cfg.workspace):
+    if policy in ("gdnet", "vags", "nbv", "vpg") and (cfg.net != run_cfg.net or cfg.workspace != run_cfg.workspace):
         raise ValueError("--set must not change net.* or workspace.*: the trained GDNet needs the "
                          "network and heightmaps it was trained with")
     if ggcnn_cfg is not None and (
@@ -318,7 +319,12 @@ def prepare_eval(args) -> SimpleNamespace:
         if "benchmark.speed" in overrides:
             raise ValueError("give the speed once: --speed or --set benchmark.speed=...")
         overrides["benchmark.speed"] = args.speed
-    run_cfg, networks, ggcnn_params, ggcnn_cfg = _run_config(args, policy)
+    vpg_variables = vpg_step = None
+    if policy == "vpg":  # VPG's own config and networks (RUN/vpg): no VPG in the run, damaged files
+        run_cfg, vpg_variables, vpg_step = load_vpg(args.run, args.step)
+        networks = ggcnn_params = ggcnn_cfg = None
+    else:
+        run_cfg, networks, ggcnn_params, ggcnn_cfg = _run_config(args, policy)
     cfg = _eval_config(args, policy, run_cfg, ggcnn_cfg, overrides)
     render.check_renderer(cfg.camera)  # the Warp renderer's GPU, before anything compiles
     rounds = cfg.benchmark.rounds if args.rounds is None else args.rounds
@@ -328,7 +334,7 @@ def prepare_eval(args) -> SimpleNamespace:
         raise ValueError(f"--record-rounds {args.record_rounds} exceeds the {rounds} rounds per group")
     if policy not in P.POLICIES:
         raise ValueError(f"unknown policy {policy!r}; choose one of {', '.join(P.POLICIES)}")
-    variables, step = None, None
+    variables, step = None, vpg_step
     if policy == "gdnet":  # the learner, checked against the run's network config
         _, variables, step = rundir.load_gdnet(args.run, args.step)
     if policy == "vags":  # the config's gate / close-view planner against the run's networks
@@ -349,6 +355,6 @@ def prepare_eval(args) -> SimpleNamespace:
     if sweep_abs or sweep_q:
         sweep_out = os.path.splitext(out)[0] + "_sweep.json" if out else None
     return SimpleNamespace(policy=policy, name=name, cfg=cfg, groups=groups, rounds=rounds, networks=networks,
-                           variables=variables, step=step, ggcnn_params=ggcnn_params, out=out,
+                           variables=variables, vpg_variables=vpg_variables, step=step, ggcnn_params=ggcnn_params, out=out,
                            sweep_abs=sweep_abs, sweep_q=sweep_q, sweep_out=sweep_out, compare=compare, seeds=seeds,
                            time_model=time_model)

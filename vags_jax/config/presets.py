@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from vags_jax.config.overrides import replace
 from vags_jax.config.sections import (DQN, EDGE_SCENES, Camera, Config, Exploration, GGCNNConfig, GGCNNData, Grasp,
-                                      Net, Replay, Scene, Sim, Stage, Workspace, object_pool)
+                                      Net, Replay, Scene, Sim, Stage, Vpg, Workspace, object_pool)
 
 
 
@@ -29,6 +29,8 @@ def tiny() -> Config:
         # GG-CNN at 24 x 24 (the 96-pixel square of the 128 x 96 image, resized by 1/4).
         ggcnn=GGCNNConfig(input_size=24, inpaint_iters=16, quality_sigma=1.0, train_steps=60),
         ggcnn_data=GGCNNData(views=16, heldout_views=8, candidates=8, scenes_per_batch=4),
+        # VPG's change threshold scaled to the 32 x 32 heightmap: 300 of 224 x 224 cells ~ 6 of 32 x 32.
+        vpg=Vpg(n_worlds=4, iterations=20, min_objects=1, max_objects=3, learning_starts=8, change_cells=6),
     )
 
 
@@ -62,6 +64,9 @@ def gpu() -> Config:
         # GG-CNN: 4,096 + 512 views of 64 candidates (bench/RESULTS.md, "Close views and GG-CNN").
         ggcnn=GGCNNConfig(batch_size=32, train_steps=6000),
         ggcnn_data=GGCNNData(views=4096, heldout_views=512, candidates=64, scenes_per_batch=64),
+        # VPG (train.py --stage vpg): scenes of 1-10 objects as VPG's; stage 1's worlds and updates.
+        vpg=Vpg(n_worlds=512, iterations=100, min_objects=1, max_objects=10, updates_per_iteration=16,
+                learning_starts=1024),
     )
 
 

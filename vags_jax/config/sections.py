@@ -875,6 +875,63 @@ class Mvp:
 
 @dataclass(frozen=True)
 @checked
+class Push:
+    """VPG's push primitive (``vags_jax.sim.push``): the closed gripper is lowered beside the
+    chosen heightmap cell, moved ``length`` straight along the push direction, then lifted.
+
+    The fingertips go ``clearance`` above the surface height at the cell (VPG pushes at the
+    cell's height); the direction of rotation index r is ``r * 2 pi / n_rotations`` (all 16
+    directions differ, unlike grasps).  Phases (seconds): ``t_settle`` at rest, ``t_descend``
+    down from the guarded start (``grasp.descent_clearance`` above what is within reach),
+    ``t_push`` along the line, ``t_lift`` up by ``lift_height``; then the gripper is parked and
+    the scene settles ``grasp.t_post``."""
+
+    length: float = 0.10  # m, VPG's 10 cm
+    clearance: float = 0.01  # m, fingertips above the surface height at the cell
+    lift_height: float = 0.10
+    t_settle: float = 0.02
+    t_descend: float = 0.15
+    t_push: float = 0.5
+    t_lift: float = 0.2
+
+    def __post_init__(self):
+        _within("Push.length", self.length, 0, 0.5, "metres", lo_open=True)
+        _within("Push.clearance", self.clearance, 0, 0.1, "metres")
+        _within("Push.lift_height", self.lift_height, 0, 1.0, "metres", lo_open=True)
+        for name in ("t_settle", "t_descend", "t_push", "t_lift"):
+            _within(f"Push.{name}", getattr(self, name), 0, 10.0, "seconds", lo_open=True)
+
+
+@dataclass(frozen=True)
+@checked
+class Vpg(Stage):
+    """VPG's training stage (``train.py --stage vpg``, ``vags_jax.stages.vpg``): its budget as
+    a ``Stage`` (one push or grasp per world per iteration; a round ends when the table is
+    clear or after ``2 * objects + max_attempts_extra`` actions) and VPG's rewards: a
+    successful grasp ``grasp_reward``, a push that changed the scene ``push_reward``.  A change
+    is more than ``change_cells`` heightmap cells whose height changed by more than
+    ``change_min`` and less than ``change_max`` metres (VPG: 300 of 224 x 224 cells, 0.01 m,
+    0.3 m).  The learner settings are the ``dqn`` section's (gamma 0.5 as VPG)."""
+
+    name: str = "vpg"
+    max_objects: int = 10
+    grasp_reward: float = 1.0
+    push_reward: float = 0.5
+    change_cells: int = 300
+    change_min: float = 0.01
+    change_max: float = 0.3
+
+    def __post_init__(self):
+        Stage.__post_init__(self)
+        _within("Vpg.grasp_reward", self.grasp_reward, 0, 100.0)
+        _within("Vpg.push_reward", self.push_reward, 0, 100.0)
+        _within("Vpg.change_cells", self.change_cells, 0, MAX_HEIGHTMAP_PX**2)
+        _check(0 <= self.change_min < self.change_max,
+               f"Vpg.change_min must be in [0, change_max = {self.change_max}) metres, got {self.change_min}")
+
+
+@dataclass(frozen=True)
+@checked
 class Benchmark:
     """The benchmark protocol (``eval.py``, ``vags_jax.benchmark.protocol``; docs/benchmark.md).
 
@@ -935,6 +992,9 @@ class Config:
     ggcnn_data: GGCNNData = field(default_factory=GGCNNData)
     benchmark: Benchmark = field(default_factory=Benchmark)
     mvp: Mvp = field(default_factory=Mvp)
+    # VPG, the push-and-grasp baseline (train.py --stage vpg): its stage and its push primitive.
+    vpg: Vpg = field(default_factory=Vpg)
+    push: Push = field(default_factory=Push)
 
     def __post_init__(self):
         N = self.scene.max_objects
@@ -945,6 +1005,7 @@ class Config:
         _check(self.benchmark.groups is None or max(self.benchmark.groups) <= N,
                f"benchmark.groups {self.benchmark.groups} go above scene.max_objects ({N}); the scene "
                f"holds at most {N} objects")
+        # (vpg's objects and learning_starts are checked when it trains: check_vpg_fits.)
         for name in ("stage1", "stage2", "stage3", "nbv"):
             st = getattr(self, name)
             _check(st.max_objects <= self.scene.max_objects or name == "nbv",  # nbv: capped when drawn
@@ -968,14 +1029,26 @@ class Config:
                f"{replay_bytes / 2**30:,.0f} GiB ({REPLAY_BYTES_PER_CELL} bytes per cell), more than "
                f"{MAX_DEVICE_BYTES // 2**30} GiB; lower replay.capacity (at most "
                f"{MAX_DEVICE_BYTES // (REPLAY_BYTES_PER_CELL * px * px):,}) or workspace.heightmap_px")
-        for name in ("stage1", "stage2", "stage3", "nbv"):
+        for name in ("stage1", "stage2", "stage3", "nbv", "vpg"):
             n = getattr(self, name).n_worlds
-            q_bytes = 2 * n * self.net.n_rotations * px * px
+            maps = 2 if name == "vpg" else 1  # VPG: push and grasp maps
+            q_bytes = 2 * n * maps * self.net.n_rotations * px * px
             _check(q_bytes <= MAX_DEVICE_BYTES,
                    f"{name}.n_worlds = {n:,} worlds need Q maps of "
                    f"{self.net.n_rotations} x {px} x {px} each, {q_bytes / 2**30:,.0f} GiB at 2 bytes per "
                    f"value, more than {MAX_DEVICE_BYTES // 2**30} GiB; lower {name}.n_worlds or "
                    f"workspace.heightmap_px")
+
+
+def check_vpg_fits(cfg: Config) -> None:
+    """VPG's stage against the scene and the replay (checked when it trains, so that configs
+    with small scenes need not shrink a stage they do not run)."""
+    v = cfg.vpg
+    _check(v.max_objects <= cfg.scene.max_objects,
+           f"vpg.max_objects ({v.max_objects}) exceeds scene.max_objects ({cfg.scene.max_objects}); lower it")
+    _check(v.learning_starts <= cfg.replay.capacity,
+           f"vpg.learning_starts ({v.learning_starts}) exceeds replay.capacity ({cfg.replay.capacity}): "
+           f"learning would never start")
 
 
 def benchmark_groups(cfg: Config) -> tuple[int, ...]:

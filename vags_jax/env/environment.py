@@ -80,6 +80,9 @@ class Attempt:
     # which the threshold is compared with), recorded by the benchmark; None for planners
     # without one.
     score: Optional[jax.Array] = None
+    # (B,) bool: the world pushes instead (VPG; ``vags_jax.env.push``: position = where the
+    # fingertips start, yaw = the push direction); None for planners that only grasp.
+    push: Optional[jax.Array] = None
 
 
 def grasp_pose(cfg: Config, height: jax.Array, pixel: jax.Array, rotation: jax.Array):

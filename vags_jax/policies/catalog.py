@@ -33,6 +33,9 @@ an action ``(B, 3) int32 [rotation, row, col]`` on the global heightmaps (1 moti
 * ``mvp``: Multi-View Picking (``vags_jax.policies.mvp``): GG-CNN on a descending sequence of
   views fused in a grid, 1 + the camera moves motions; its failure map is the policy's memory
   over a round.  Needs a GG-CNN.
+* ``vpg``: the VPG baseline (``vags_jax.policies.vpg``): the argmax over its push and grasp Q
+  maps on the global view; a push is one motion and no grasp attempt.  ``params`` = VPGNet's
+  ``{"params", "batch_stats"}`` from ``train.py --stage vpg`` (``stages.vpg.load_vpg``).
 """
 from __future__ import annotations
 
@@ -50,8 +53,9 @@ from vags_jax.nets import make_qnet, nbv_net
 from vags_jax.nets.ggcnn import GGCNN
 from vags_jax.policies.decision import VagsNets, close_view_grasp, gate_threshold, greedy
 from vags_jax.policies.mvp import MvpPlanner
+from vags_jax.policies.vpg import vpg_plan
 
-POLICIES = ("vags", "gdnet", "ggcnn", "ggcnn-close", "mvp", "nbv", "random", "highest", "heuristic")
+POLICIES = ("vags", "gdnet", "ggcnn", "ggcnn-close", "mvp", "nbv", "vpg", "random", "highest", "heuristic")
 # The policies that need a GG-CNN trained by ``train.py --stage ggcnn``.
 GGCNN_POLICIES = ("ggcnn", "ggcnn-close", "mvp")
 
@@ -66,7 +70,8 @@ class Policy:
     after a viewpoint move 2).  ``params``: a pytree passed to the compiled loop as an argument
     (network weights), or None.  ``act``: for policies that choose a heightmap action on the
     global view, ``(params, key, state) -> action (B, 3) int32 [rotation, row, col]`` (``plan``
-    executes it, 1 motion); None for the others.
+    executes it, 1 motion); None for the others.  ``pushes``: the plan's attempts may push
+    (``Attempt.push``; VPG), which the benchmark then executes and counts.
 
     A policy with a memory over the attempts of a round (MVP's failure map) gives
     ``init_memory(B) -> pytree`` and ``remember(memory, attempt, success (B,) bool) -> memory``
@@ -79,6 +84,7 @@ class Policy:
     act: Optional[Callable] = None
     init_memory: Optional[Callable] = None
     remember: Optional[Callable] = None
+    pushes: bool = False
 
 
 def heightmap_policy(name: str, act: Callable, params: Any = None) -> Policy:
@@ -293,11 +299,13 @@ def gdnet_act(cfg: Config) -> Callable:
 
 
 def make_policy(name: str, cfg: Config, gdnet_variables: Any = None, ggcnn_params: Any = None,
-                vags_networks: Any = None, threshold: Optional[float] = None) -> Policy:
+                vags_networks: Any = None, threshold: Optional[float] = None,
+                vpg_variables: Any = None) -> Policy:
     """Policy by name (``POLICIES``); ``gdnet`` needs ``gdnet_variables`` ({"params",
     "batch_stats"}, e.g. from ``load_gdnet``); ``ggcnn`` / ``ggcnn-close`` need
     ``ggcnn_params`` ({"params"}, e.g. from ``ggcnn_stage.load_ggcnn``); ``vags`` needs
-    ``vags_networks`` (``pipeline.load_vags``) and takes ``threshold`` (default: the run's)."""
+    ``vags_networks`` (``pipeline.load_vags``) and takes ``threshold`` (default: the run's);
+    ``vpg`` needs ``vpg_variables`` (``stages.vpg.load_vpg``)."""
     if name not in POLICIES:
         raise ValueError(f"unknown policy {name!r}; choose one of {', '.join(POLICIES)}")
     if name == "vags":
@@ -310,6 +318,11 @@ def make_policy(name: str, cfg: Config, gdnet_variables: Any = None, ggcnn_param
             raise ValueError("policy 'nbv' needs the NBV network of a run (train.py --stage nbv --out RUN, then "
                              "eval.py --run RUN --policy nbv), or pass vags_networks (rundir.load_nbv)")
         return Policy("nbv", nbv_plan(cfg), nbv_params(vags_networks, cfg))
+    if name == "vpg":
+        if vpg_variables is None:
+            raise ValueError("policy 'vpg' needs VPG's trained networks: evaluate a run with train.py --stage vpg "
+                             "(eval.py --run RUN --policy vpg) or pass vpg_variables")
+        return Policy("vpg", vpg_plan(cfg), vpg_variables, pushes=True)
     if name == "gdnet":
         if gdnet_variables is None:
             raise ValueError("policy 'gdnet' needs trained GDNet variables: evaluate a run "

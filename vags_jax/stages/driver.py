@@ -29,6 +29,7 @@ from vags_jax.env import VagsEnv
 from vags_jax.ggcnn import data as ggcnn_data
 from vags_jax.stages import checkpoint, interrupts, pipeline, progress, requests, run_lock, rundir, stage23
 from vags_jax.stages import ggcnn as ggcnn_stage
+from vags_jax.stages import vpg as vpg_stage
 from vags_jax.stages.stage1 import Stage1
 from vags_jax.stages.stage23 import VagsStage
 
@@ -52,7 +53,8 @@ class Programs:
         return self._built[key]
 
     def _cfg_key(self, kind: str, cfg):
-        return kind, C.replace(cfg, **{f"stage{n}.iterations": 1 for n in (1, 2, 3)}, **{"nbv.iterations": 1})
+        return kind, C.replace(cfg, **{f"stage{n}.iterations": 1 for n in (1, 2, 3)},
+                               **{"nbv.iterations": 1, "vpg.iterations": 1})
 
     def env(self, cfg) -> VagsEnv:
         return self.get(self._cfg_key("env", cfg), lambda: VagsEnv(cfg))
@@ -62,6 +64,10 @@ class Programs:
         make = (lambda: Stage1(cfg, self.env(cfg))) if name == "stage1" else (
             lambda: VagsStage(cfg, pipeline.which_stage(name), self.env(cfg)))
         return self.get(self._cfg_key(name, cfg), make)
+
+    def vpg(self, cfg) -> vpg_stage.VpgStage:
+        """VPG's built stage for ``cfg`` on this process's env."""
+        return self.get(self._cfg_key("vpg", cfg), lambda: vpg_stage.VpgStage(cfg, self.env(cfg)))
 
     def data_maker(self, cfg) -> ggcnn_data.DataMaker:
         """GG-CNN's data programs, shared by configs with the same ``program_key``."""
@@ -180,6 +186,58 @@ def report_end(args, data: dict, summaries: list, cfg, wall_s: float, finished: 
     print("\n".join(lines), file=sys.stderr if args.json else sys.stdout, flush=True)
     if args.json:
         print(json.dumps(data), flush=True)
+def main_vpg(args, programs: Programs, stop, board) -> int:
+    """--stage vpg: VPG's push and grasp nets (``stages.vpg``) into --out/vpg, fresh or resumed."""
+    try:
+        plan = requests.prepare_vpg(args)
+    except ValueError as e:
+        return fail(e)
+    if plan.done:
+        print(plan.done, file=sys.stderr)
+        return 0
+    return _under_lock(args.out, lambda: _vpg_locked(args, plan, programs, stop, board))
+
+
+def _vpg_locked(args, plan, programs: Programs, stop, board) -> int:
+    """The rest of ``main_vpg`` while the run's lock is held: the stage run chunk by chunk
+    (``run_chunks``: metrics, checkpoints, the deadline and stop requests as stage 1's)."""
+    cfg, done, out_dir = plan.cfg, plan.step, vpg_stage.vpg_dir(args.out)
+    t0 = time.time()
+    deadline = None if args.max_minutes is None else t0 + 60 * args.max_minutes
+    try:
+        program = programs.vpg(cfg)
+        state = program.init(vpg_stage.stage_key(cfg))
+        if done:
+            state, _ = checkpoint.restore(out_dir, state, done)
+            print(f"resumed {out_dir} at iteration {done}", file=sys.stderr)
+    except ValueError as e:  # CheckpointError: a damaged or foreign checkpoint
+        return fail(e)
+    if not done:  # a VPG directory with no checkpoint (a failed start) is reused: clear what it left
+        shutil.rmtree(out_dir, ignore_errors=True)
+    os.makedirs(out_dir, exist_ok=True)
+    checkpoint.save_config(out_dir, cfg)
+    v = cfg.vpg
+    log(f"training VPG (push and grasp nets): {v.n_worlds} worlds of {v.min_objects}-{v.max_objects} objects, "
+        f"{v.iterations} iterations, impl={cfg.sim.impl}, trunk={cfg.net.trunk}, devices={jax.devices()}")
+    state, it, status, actions, recent = run_chunks("vpg", program, state, done, v.iterations, out_dir, args,
+                                                    deadline, stop=stop, board=board)
+    if end_of_segment(args, "vpg", done, it, t0, status):
+        return 1
+    if status == "interrupted":
+        return stop.exit_code
+    data = {"stage": "vpg", "iterations": it, "grasp_attempts": actions, "recent_success_rate": recent,
+            "wall_s": round(time.time() - t0, 1), "out": out_dir}
+    path = os.path.join(out_dir, SUMMARY_FILE)
+    with open(path, "w", encoding="utf-8") as f:
+        json.dump(data, f, indent=2)
+    lines = [f"trained in {progress.duration(time.time() - t0)}: {out_dir}", progress.stage_line(data),
+             f"  progress: vpg {it}/{v.iterations}", f"  summary (JSON): {path}", "next:",
+             f"  python eval.py --run {args.out} --policy vpg      # VPG on the benchmark (docs/benchmark.md)"
+             if it >= v.iterations else f"  python train.py --stage vpg --out {args.out} --resume"]
+    print("\n".join(lines), file=sys.stderr if args.json else sys.stdout, flush=True)
+    if args.json:
+        print(json.dumps(data), flush=True)
+    return 0
 
 
 # ----------------------------------------------------------------------------- chunks
@@ -526,7 +584,7 @@ def train(args, programs: Optional[Programs] = None) -> int:
     stop it at the next chunk boundary with a checkpoint (exit code 130 / 143); a second
     Ctrl-C abandons the chunk in flight, keeping the last checkpoint: one line either way."""
     programs = Programs() if programs is None else programs
-    stage = rundir.canonical(args.stage) if args.stage else None
+    stage = rundir.canonical(args.stage) if args.stage not in (None, "vpg") else None  # vpg: its own command
     if stage == "stage1" and args.data_dir is not None:
         return fail("--data-dir is for GG-CNN (--stage ggcnn, or the whole pipeline); drop it for --stage gdnet")
     try:
@@ -540,6 +598,8 @@ def train(args, programs: Optional[Programs] = None) -> int:
                 return main_ggcnn(args, programs, stop, board)
             if stage == "stage1":
                 return main_stage1(args, programs, stop, board)
+            if args.stage == "vpg":  # VPG, the baseline: not a stage of the VAGS pipeline
+                return main_vpg(args, programs, stop, board)
             return main_pipeline(args, stage, programs, stop, board)
         except KeyboardInterrupt:  # a second Ctrl-C: the chunk in flight is lost, the last checkpoint kept
             print(file=sys.stderr)
@@ -550,4 +610,4 @@ def train(args, programs: Optional[Programs] = None) -> int:
                 board.close()
 
 
-__all__ = ["Programs", "train", "run_chunks", "run_stage", "nonfinite", "handover_from_disk", "FINITE_METRICS"]
+__all__ = ["Programs", "train", "main_vpg", "run_chunks", "run_stage", "nonfinite", "handover_from_disk", "FINITE_METRICS"]

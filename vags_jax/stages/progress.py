@@ -84,7 +84,7 @@ def eta(left: int, run_seconds: float, run_iterations: int) -> Optional[float]:
 # ----------------------------------------------------------------------------- the closing summary
 
 
-def _stage_line(s: dict) -> str:
+def stage_line(s: dict) -> str:
     name = s["stage"]
     if name == "ggcnn":
         ok = s.get("ggcnn_success")
@@ -121,7 +121,7 @@ def closing_lines(summaries: Iterable[dict], out: str, progress: dict, wall_s: f
     """The human summary: one line per stage trained by this command, the run's progress, where
     the JSON summary is, and the next commands."""
     lines = [f"trained in {duration(wall_s)}: {out}"]
-    lines += [_stage_line(s) for s in summaries]
+    lines += [stage_line(s) for s in summaries]
     lines.append("  progress: " + ", ".join(f"{n} {p}" for n, p in progress.items()))
     lines.append(f"  summary (JSON): {summary_file}")
     cmds = next_commands(out, progress, finished)

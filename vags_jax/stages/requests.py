@@ -21,11 +21,12 @@ from vags_jax.sim import scene
 from vags_jax.perception import render
 from vags_jax.stages import checkpoint, memory, run_lock, rundir, stage1
 from vags_jax.stages import ggcnn as ggcnn_stage
+from vags_jax.stages import vpg as vpg_stage
 
 # What a run directory may hold besides its checkpoints, for --out to be reused by a fresh run
 # when it has no checkpoint yet (a run that failed before its first checkpoint).
 RUN_LEFTOVERS = ("config.json", "metrics.jsonl", "checkpoints", "ggcnn", "stage2", "stage3", "nbv", "timings.jsonl",
-                 "summary.json", run_lock.LOCK_FILE)
+                 "summary.json", vpg_stage.VPG_DIR, run_lock.LOCK_FILE)
 ITERATION_KEYS = ("stage1.iterations", "stage2.iterations", "stage3.iterations")
 
 
@@ -313,3 +314,43 @@ def prepare_pipeline(args, only):
     if only is None and 0 < done1 < cfg.stage1.iterations:  # checked now, not after GG-CNN's minutes
         stage1_arrays = read_stage1_checkpoint(args.out, cfg, done1)
     return SimpleNamespace(cfg=cfg, fresh=False, changed=changed, data_dir=data_dir, stage1_arrays=stage1_arrays)
+
+
+def prepare_vpg(args) -> SimpleNamespace:
+    """--stage vpg: VPG's config (``RUN/vpg/config.json`` when resuming: only vpg.iterations may
+    change) and --out (new, or a run without a VPG checkpoint; the run's other files are left
+    alone), checked before anything is built.  ``.step``: the checkpoint to resume (0: fresh);
+    ``.done``: a message when nothing is left to train."""
+    if args.data_dir is not None:
+        raise ValueError("--data-dir is for GG-CNN (--stage ggcnn, or the whole pipeline); drop it for --stage vpg")
+    overrides = C.parse_overrides(args.set)
+    _check_out_path(args.out)
+    d = vpg_stage.vpg_dir(args.out)
+    steps = checkpoint.checkpoint_steps(d) if os.path.isdir(d) else []
+    if not args.resume:
+        if steps:
+            raise ValueError(f"{args.out} already holds a VPG ({d}, checkpoint {steps[-1]}); pass --resume to "
+                             f"continue it, or choose another --out")
+        if os.path.isdir(args.out):
+            _check_only_run_files(args.out)
+        cli.check_parent_writable(os.path.join(d, "config.json"), "--out")
+        cfg = C.replace(C.preset(args.config or "tiny"), **overrides)
+        scene.build_spec(cfg)  # the scene's own checks (shape names), in milliseconds
+        vpg_stage.check_config(cfg)
+        return SimpleNamespace(cfg=cfg, step=0, done=None)
+    if args.config is not None:
+        raise ValueError("--resume takes the run's own vpg/config.json; drop --config")
+    bad = [k for k in overrides if k != "vpg.iterations"]
+    if bad:
+        raise ValueError(f"with --resume only vpg.iterations may change (the run's vpg/config.json fixes the "
+                         f"rest), got {bad}; start a new run (another --out) to change them")
+    if not steps:
+        raise ValueError(f"{args.out} has no VPG checkpoint ({d}); start it without --resume")
+    cfg = C.replace(checkpoint.load_config(d), **overrides)
+    step, total = steps[-1], cfg.vpg.iterations
+    if total <= step:
+        return SimpleNamespace(cfg=cfg, step=step, done=(
+            f"{d} is already at iteration {step}: nothing to train (config.json unchanged); pass --set "
+            f"vpg.iterations=N with N > {step} to train further"))
+    check_metrics_file(d)
+    return SimpleNamespace(cfg=cfg, step=step, done=None)
