@@ -438,12 +438,12 @@ def test_net_init_starts_both_trunks_from_the_state_dict(densenet_gdnet_vars, tm
     dict in both trunks and its head as drawn; ``check_init`` reads and fits the file first,
     by tracing (nothing compiled).  init_qnet is replaced by the zero variables here."""
     from vags_jax.nets import check_init, initial_variables
-    from vags_jax.nets import qnet
+    from vags_jax.nets import pretrained
 
     sd = _synthetic_state_dict(densenet_gdnet_vars, seed=2)
     path = tmp_path / "densenet121.npz"
     np.savez(path, **sd)
-    monkeypatch.setattr(qnet, "init_qnet", lambda key, model, h, w: densenet_gdnet_vars)
+    monkeypatch.setattr(pretrained, "init_qnet", lambda key, model, h, w: densenet_gdnet_vars)
     model = make_qnet(Net(), "gdnet")
     assert initial_variables(jax.random.PRNGKey(0), model, Net(), HM, HM) is densenet_gdnet_vars  # no init: as drawn
     net_cfg = Net(init=str(path))
