@@ -47,8 +47,6 @@ anything is compiled: a bad one ends with one line on stderr and exit code 2.
 from __future__ import annotations
 
 import argparse
-import dataclasses
-import math
 import os
 import sys
 
@@ -61,7 +59,6 @@ from vags_jax.benchmark import metrics as M
 from vags_jax.benchmark import protocol as E
 from vags_jax.benchmark import reports, requests, sweep
 from vags_jax.benchmark.record_rounds import record_rounds
-from vags_jax.policies import catalog as P
 
 PROG = "eval.py"
 
@@ -121,14 +118,6 @@ def parse_args(argv=None):
     return p.parse_args(argv)
 
 
-def policy_of(plan, args):
-    """The policy of a checked plan (``requests.prepare_eval``), named as in its report."""
-    threshold = -math.inf if args.no_viewpoint else args.threshold
-    pol = P.make_policy(plan.policy, plan.cfg, plan.variables, plan.ggcnn_params, plan.networks, threshold,
-                        vpg_variables=plan.vpg_variables)
-    return dataclasses.replace(pol, name=plan.name)
-
-
 def main_compare(args) -> int:
     """--compare: every method on the same scenes and seed; Table 1, JSON + CSV, Fig. 7."""
     try:
@@ -136,20 +125,7 @@ def main_compare(args) -> int:
     except ValueError as e:
         return cli.fail(PROG, e)
     log = lambda s: print(s, file=sys.stderr, flush=True)  # noqa: E731
-    ev, results = None, {}
-    for label, mplan, saved in plan.methods:
-        if saved is not None:
-            results[label] = saved
-            continue
-        log(f"evaluating {label}" + (f" ({mplan.run})" if mplan.run else "") + f": groups {plan.groups}, "
-            f"{plan.rounds} rounds each, seed {plan.seed}, devices={jax.devices()}")
-        ev = ev if ev is not None else E.Evaluator(plan.cfg)  # one environment: the same scenes for all
-        pol = policy_of(mplan, args)
-        report = E.evaluate(plan.cfg, pol, plan.groups, plan.rounds, plan.seed, plan.time_model, ev, log=log)
-        report["run"] = mplan.run
-        if mplan.policy == "vags":
-            report["threshold"] = float(np.asarray(pol.params["threshold"]))
-        results[label] = report
+    results = CMP.play_methods(plan, lambda mplan: requests.policy_of(mplan, args), log)
     try:
         CMP.check_same_scenes(results)
     except ValueError as e:
@@ -184,7 +160,7 @@ def main(argv=None) -> int:
     log(f"evaluating {name}{source}: groups {groups}, {rounds} rounds each, impl={cfg.sim.impl}, "
         f"devices={jax.devices()}")
     ev = E.Evaluator(cfg)
-    pol = policy_of(plan, args)
+    pol = requests.policy_of(plan, args)
     extra = {"run": args.run, "checkpoint_step": step}
     overall = {}
     for seed in plan.seeds:  # one Evaluator: every seed reuses the programs the first one compiled

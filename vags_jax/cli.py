@@ -14,6 +14,8 @@ import sys
 import tempfile
 from typing import Optional
 
+from absl import logging as absl_logging  # comes with orbax-checkpoint
+
 
 class ArgumentParser(argparse.ArgumentParser):
     """argparse, but an error is one line (no usage block): ``prog: error: ...``, exit code 2."""
@@ -99,11 +101,7 @@ def quiet_third_party(verbose: bool) -> None:
     level = logging.INFO if verbose else logging.WARNING
     for name in ("absl", "orbax", "jax._src.xla_bridge"):
         logging.getLogger(name).setLevel(level)
-    try:
-        from absl import logging as absl_logging
-        absl_logging.set_verbosity(absl_logging.INFO if verbose else absl_logging.WARNING)
-    except ImportError:  # absl comes with orbax; without it there is nothing to silence
-        pass
+    absl_logging.set_verbosity(absl_logging.INFO if verbose else absl_logging.WARNING)
     try:
         import warp
         warp.config.quiet = not verbose

@@ -18,8 +18,12 @@ from __future__ import annotations
 import csv
 import json
 import os
-from typing import Optional
+from typing import Callable, Optional
 
+import jax
+import numpy as np
+
+from vags_jax.benchmark import protocol as E
 from vags_jax.benchmark.metrics import wilson_interval
 
 CSV_COLUMNS = ("method", "policy", "n_objects", "rounds", "attempts", "successes", "grasp_success_rate",
@@ -112,4 +116,28 @@ def write_comparison(reports: dict, path: str, meta: Optional[dict] = None) -> s
     return csv_path
 
 
-__all__ = ["CSV_COLUMNS", "with_intervals", "table1", "comparison_rows", "check_same_scenes", "write_comparison"]
+
+
+def play_methods(plan, policy_of: Callable, log: Callable) -> dict:
+    """Every method of a checked comparison (``requests.prepare_compare``) played in ONE
+    ``Evaluator`` (the same scenes and seed for all), or taken from its saved report ->
+    {label: report}.  ``policy_of(method_plan) -> Policy``."""
+    ev, results = None, {}
+    for label, mplan, saved in plan.methods:
+        if saved is not None:
+            results[label] = saved
+            continue
+        log(f"evaluating {label}" + (f" ({mplan.run})" if mplan.run else "") + f": groups {plan.groups}, "
+            f"{plan.rounds} rounds each, seed {plan.seed}, devices={jax.devices()}")
+        ev = ev if ev is not None else E.Evaluator(plan.cfg)
+        pol = policy_of(mplan)
+        report = E.evaluate(plan.cfg, pol, plan.groups, plan.rounds, plan.seed, plan.time_model, ev, log=log)
+        report["run"] = mplan.run
+        if mplan.policy == "vags":
+            report["threshold"] = float(np.asarray(pol.params["threshold"]))
+        results[label] = report
+    return results
+
+
+__all__ = ["CSV_COLUMNS", "with_intervals", "table1", "comparison_rows", "check_same_scenes", "write_comparison",
+           "play_methods"]

@@ -8,6 +8,7 @@ paths, sweeps), or raises ``ValueError`` (``CheckpointError``) with one line say
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
 import os
@@ -358,3 +359,12 @@ def prepare_eval(args) -> SimpleNamespace:
                            variables=variables, vpg_variables=vpg_variables, step=step, ggcnn_params=ggcnn_params, out=out,
                            sweep_abs=sweep_abs, sweep_q=sweep_q, sweep_out=sweep_out, compare=compare, seeds=seeds,
                            time_model=time_model)
+
+
+def policy_of(plan, args) -> P.Policy:
+    """The policy of a checked plan (``prepare_eval``; one method of ``prepare_compare``), named
+    as in its report: ``--no-viewpoint`` makes VAGS's threshold -inf, ``--threshold`` sets it."""
+    threshold = -math.inf if args.no_viewpoint else args.threshold
+    pol = P.make_policy(plan.policy, plan.cfg, plan.variables, plan.ggcnn_params, plan.networks, threshold,
+                        vpg_variables=plan.vpg_variables)
+    return dataclasses.replace(pol, name=plan.name)
