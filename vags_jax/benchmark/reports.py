@@ -125,7 +125,7 @@ def write_sweep_csv(rows: list[dict], path: str) -> None:
     """Writes a threshold sweep (the paper's Fig. 6) as CSV, one line per sweep point.
 
     ``rows``: dicts with ``kind`` ("absolute" or "quantile"), ``quantile`` (float, None for an
-    absolute threshold), ``threshold`` (the Q threshold used), ``overall`` (a ``summarize``
+    absolute threshold), ``threshold`` (the decision threshold used), ``overall`` (a ``summarize``
     dict) and ``groups_metrics`` (not written).  Columns: ``SWEEP_COLUMNS``.
     """
     rows = _check_sweep(rows)
@@ -203,7 +203,7 @@ def plot_by_objects(reports: dict[str, dict], path: str, title: Optional[str] = 
 
 
 def plot_sweep(rows: list[dict], path: str, title: Optional[str] = None) -> None:
-    """Grasp success (%) and viewpoint share (% of attempts) against the Q threshold (the
+    """Grasp success (%) and viewpoint share (% of attempts) against the decision threshold (the
     paper's Fig. 6), two panels, one line per sweep kind; quantile thresholds are drawn at the
     threshold value they resolved to, labelled with their quantile.  Writes a PNG to ``path``."""
     rows = _check_sweep(rows)
@@ -222,7 +222,7 @@ def plot_sweep(rows: list[dict], path: str, title: Optional[str] = None) -> None
                 axes[0].annotate(f"q={r['quantile']:g}", (x, _percent(r["overall"]["grasp_success_rate"])),
                                  textcoords="offset points", xytext=(4, 4), fontsize=8)
     for ax, name in zip(axes, ("grasp success (%)", "viewpoint moves (% of attempts)")):
-        ax.set_xlabel("Q threshold")
+        ax.set_xlabel("decision threshold (the gate's score: GDNet's Q or the success gate's)")
         ax.set_ylabel(name)
         ax.set_ylim(-2, 102)
         ax.grid(True, alpha=0.3)
