@@ -8,7 +8,11 @@
 #             until every stage is done; a finished run without GG-CNN gets one
 #             (train.py --stage ggcnn)
 #   2. nbv    the NBV baseline's network (train.py --stage nbv), resumed until done
-#   3. eval   every method and object set, one eval.py per method (compiled once each), reports
+#      vpg    VPG's push and grasp nets (train.py --config CONFIG --stage vpg into RUN/vpg), for
+#             VPG_MINUTES (default 5) of training clock, when METHODS has vpg
+#             (SKIP_TRAIN=1 skips 1 and 2: RUN holds networks brought from another machine)
+#   3. eval   METHODS (default "vags ggcnn mvp nbv vpg") on OBJECT_SETS (default "default unseen"),
+#             one eval.py per method (compiled once each), reports
 #             in OUT/<objects>/eval_<method>.json; a method that fails is logged and skipped
 #   4. table  eval.py --compare of those reports: Table 1 (OUT/<objects>/table1.md, .json, .csv)
 #             and Fig. 7 (OUT/<objects>/fig7.png); the compare refuses reports of other scenes
@@ -45,8 +49,9 @@ EOF
 }
 stop() { cp "$run/timings.jsonl" "$out/train_timings.jsonl" 2>/dev/null; echo "$1: call again"; exit 0; }
 
+methods=${METHODS-vags ggcnn mvp nbv vpg}
 # 1. the VAGS run, with a GG-CNN
-if ! progress pipeline; then
+if [ "${SKIP_TRAIN:-0}" != 1 ] && ! progress pipeline; then
   if [ -f "$run/config.json" ]; then how=(--resume); else
     how=(--config "${CONFIG:-gpu}" --set vags.train_ggcnn=true ${TRAIN_SET:-}); fi
   timed python train.py "${how[@]}" --out "$run" --data-dir "$data" --checkpoint-every 1000 --max-minutes "$(mins)" \
@@ -54,7 +59,7 @@ if ! progress pipeline; then
   tail -2 "$out/train.txt" | cut -c1-600
   progress pipeline || stop "training not done yet"
 fi
-if ! progress ggcnn; then
+if [ "${SKIP_TRAIN:-0}" != 1 ] && ! progress ggcnn; then
   [ "$(left)" -lt 300 ] && stop "no time for GG-CNN"
   timed python train.py --config "${CONFIG:-gpu}" --stage ggcnn --out "$run" --data-dir "$data" --quiet \
     ${TRAIN_SET:+--set $TRAIN_SET} >> "$out/train.txt" 2>&1
@@ -63,18 +68,27 @@ if ! progress ggcnn; then
 fi
 
 # 2. NBV
-if ! progress nbv; then
+if [ "${SKIP_TRAIN:-0}" != 1 ] && ! progress nbv; then
   timed python train.py --out "$run" --stage nbv --checkpoint-every 1000 --max-minutes "$(mins)" --quiet \
     >> "$out/train.txt" 2>&1
   tail -1 "$out/train.txt" | cut -c1-600
   progress nbv || stop "NBV not done yet"
 fi
+# VPG, on a budget of training clock (its own config in RUN/vpg)
+if [[ " $methods " == *" vpg "* ]] && [ ! -f "$out/vpg_trained" ]; then
+  how=(--config "${CONFIG:-gpu}"); [ -d "$run/vpg/checkpoints" ] && how=(--resume)
+  [ "$(left)" -lt 200 ] && stop "no time for VPG"
+  timed python train.py "${how[@]}" --stage vpg --out "$run" --checkpoint-every 1000 \
+    --max-minutes "$(python -c "print(min(${VPG_MINUTES:-5}, max(0.5, ($(left) - 60) / 60)))")" --quiet \
+    ${VPG_SET:+--set $VPG_SET} >> "$out/train.txt" 2>&1
+  tail -1 "$out/train.txt" | cut -c1-600
+  [ -d "$run/vpg/checkpoints" ] && touch "$out/vpg_trained" || stop "VPG not trained (see $out/train.txt)"
+  cp "$run/vpg/timings.jsonl" "$out/vpg_timings.jsonl" 2>/dev/null
+fi
 cp "$run/timings.jsonl" "$out/train_timings.jsonl" 2>/dev/null
 
 # 3. every method on every object set
-methods="vags ggcnn mvp nbv"
-python -c "from vags_jax.policies.catalog import POLICIES; raise SystemExit(0 if 'vpg' in POLICIES else 1)" && methods="$methods vpg"
-for objects in default unseen; do
+for objects in ${OBJECT_SETS:-default unseen}; do
   mkdir -p "$out/$objects"
   obj=(); [ "$objects" = unseen ] && obj=(--objects unseen)
   for m in $methods; do
@@ -98,7 +112,7 @@ for objects in default unseen; do
 done
 
 # 4. Table 1 and Fig. 7 from the saved reports (the same scenes, or the compare refuses them)
-for objects in default unseen; do
+for objects in ${OBJECT_SETS:-default unseen}; do
   reps=$(ls "$out/$objects"/eval_*.json 2>/dev/null)
   [ -z "$reps" ] && continue
   plot=(--plot "$out/$objects/fig7.png")

@@ -19,8 +19,8 @@ each state the physics is branched (the simulator is pure: each branch starts fr
 * ``random_gdnet``: as ``view_gdnet`` but the viewpoint is a uniformly random object cell
   (is VANet's choice better than chance?).
 
-Reported per subset of states (all; where each gate -- ``success`` and ``q`` -- would grasp
-directly / move the camera): the success rate of each branch, and the AUROC with which each
+Reported per subset of states (all; where each gate -- ``success`` with either
+``vags.view_estimate``, and ``q`` -- would grasp directly / move the camera): the success rate of each branch, and the AUROC with which each
 gate score (the success net's p_direct, GDNet's largest Q) ranks the direct grasp's success,
 and VANet's p_view the success after its move.  Prints a Markdown table; ``--out`` JSON.
 """
@@ -61,7 +61,7 @@ def auroc(score, label):
     return float((ranks[:pos.size].sum() - pos.size * (pos.size + 1) / 2) / (pos.size * neg.size))
 
 
-def make_step(cfg, env, has_ggcnn: bool):
+def make_step(cfg, env, has_ggcnn: bool, has_mean: bool):
     """-> jitted ``(params, key, state) -> (next state, per-world dict)``."""
     import jax
     import jax.numpy as jnp
@@ -82,8 +82,9 @@ def make_step(cfg, env, has_ggcnn: bool):
         q_grasp = gdnet_q(state.color, state.height)
         q_view = nets.q_fn(nets.vanet, params["vanet"])(state.color, state.height)
         q_success = nets.q_fn(nets.gdnet, params["success"])(state.color, state.height)
-        d_s = decide(q_grasp, q_view, gate_threshold(dataclasses.replace(cfg.vags, gate="success"), None),
-                     q_success, "success", params["calibration"])
+        thr_s = gate_threshold(dataclasses.replace(cfg.vags, gate="success"), None)
+        d_s = decide(q_grasp, q_view, thr_s, q_success, "success", params["calibration"], "vanet")
+        d_m = decide(q_grasp, q_view, thr_s, q_success, "success", params["calibration"], "mean") if has_mean else d_s
         d_q = decide(q_grasp, q_view, params["q_threshold"])
         pos, yaw = env.grasp_pose(state, d_q.grasp[:, 1:], d_q.grasp[:, 0])
         attempts = {"direct": env.direct_attempt(pos, yaw)}
@@ -102,7 +103,7 @@ def make_step(cfg, env, has_ggcnn: bool):
         out = {name: env.step_attempt(state, a, observe=False)[1].success for name, a in attempts.items()}
         out.update(q_max=d_q.q_max, p_direct=value_at(q_success, d_q.grasp),
                    p_view=jnp.max(q_view.reshape(q_view.shape[0], -1), axis=1),
-                   direct_success_gate=d_s.direct, direct_q_gate=d_q.direct,
+                   direct_success_gate=d_s.direct, direct_mean_gate=d_m.direct, direct_q_gate=d_q.direct,
                    objects=env.n_remaining(state), live=(env.n_remaining(state) > 0) & ~state.sim.error)
         nxt, _ = env.step_attempt(state, attempts["direct"], k_obs if noisy else None)
         return nxt, out
@@ -110,15 +111,17 @@ def make_step(cfg, env, has_ggcnn: bool):
     return jax.jit(step)
 
 
-def summarize(rows: dict, has_ggcnn: bool) -> dict:
+def summarize(rows: dict, has_ggcnn: bool, has_mean: bool = False) -> dict:
     import numpy as np
 
     live = rows["live"]
     subsets = {"all": live,
-               "success gate: direct": live & rows["direct_success_gate"],
-               "success gate: move": live & ~rows["direct_success_gate"],
-               "q gate: direct": live & rows["direct_q_gate"],
-               "q gate: move": live & ~rows["direct_q_gate"]}
+               "success gate, VANet's estimate: direct": live & rows["direct_success_gate"],
+               "success gate, VANet's estimate: move": live & ~rows["direct_success_gate"]}
+    if has_mean:
+        subsets.update({"success gate, mean after a move: direct": live & rows["direct_mean_gate"],
+                        "success gate, mean after a move: move": live & ~rows["direct_mean_gate"]})
+    subsets.update({"q gate: direct": live & rows["direct_q_gate"], "q gate: move": live & ~rows["direct_q_gate"]})
     out = {}
     for name, m in subsets.items():
         entry = {"states": int(m.sum())}
@@ -187,7 +190,8 @@ def main(argv=None) -> int:
     t0 = time.time()
     state = env.reset(k_reset, n_obj)
     env.prepare(args.worlds)
-    step = make_step(cfg, env, nets.ggcnn is not None)
+    has_mean = np.asarray(params["calibration"]).shape[0] >= 3
+    step = make_step(cfg, env, nets.ggcnn is not None, has_mean)
     rows: dict[str, list] = {}
     for t in range(args.steps):
         key, k = jax.random.split(key)
@@ -196,7 +200,7 @@ def main(argv=None) -> int:
             rows.setdefault(name, []).append(np.asarray(v))
         print(f"step {t + 1}/{args.steps}: {time.time() - t0:.0f} s", file=sys.stderr, flush=True)
     rows = {k: np.concatenate(v) for k, v in rows.items()}
-    summary = summarize(rows, nets.ggcnn is not None)
+    summary = summarize(rows, nets.ggcnn is not None, has_mean)
     print(table(summary, nets.ggcnn is not None))
     if args.out:
         os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)

@@ -1027,7 +1027,7 @@ def vags_run(tmp_path_factory):
     nets = {k: rundir.learner_target(cfg, "gdnet" if k != "vanet" else "vanet") for k in ("gdnet", "vanet", "success")}
     checkpoint.save(rundir.networks_dir(run, "stage3"), 2, {
         **{k: {"params": v.params, "batch_stats": v.batch_stats} for k, v in nets.items()},
-        "threshold": np.float32(0.5), "calibration": np.zeros(2, np.float32)})
+        "threshold": np.float32(0.5), "calibration": np.array([0.0, 0.0, 0.8], np.float32)})
     return run
 
 
@@ -1175,6 +1175,11 @@ def test_predict_on_a_run_without_the_needed_networks(tmp_path, capsys, fake_run
     checkpoint.save(d, 2, {k: v for k, v in arrays.items() if k not in ("success", "calibration")})
     code, line = _cli(_predict_main, _predict_argv(old, frame_files, {}), capsys)
     assert code == 2 and "have no success net" in line and "--set vags.gate=q" in line
+    # A run from before the mean success after a move was kept: calibration of 2 entries.
+    shutil.rmtree(d)
+    checkpoint.save(d, 2, {**arrays, "calibration": np.zeros(2, np.float32)})
+    code, line = _cli(_predict_main, _predict_argv(old, frame_files, {}), capsys)
+    assert code == 2 and "keep no mean success after a move" in line and "vags.view_estimate=vanet" in line
 
 
 @pytest.mark.parametrize("argv,msg", [

@@ -56,3 +56,10 @@ def test_vpg_and_push_sections_are_checked():
     small = C.replace(cfg, **{"vpg.max_objects": 5})
     with pytest.raises(ValueError, match=r"vpg.max_objects \(5\) exceeds scene.max_objects \(3\)"):
         C.check_vpg_fits(small)
+
+
+def test_view_estimate_is_checked():
+    assert C.Config().vags.view_estimate == "mean"
+    assert C.replace(C.Config(), **{"vags.view_estimate": "vanet"}).vags.view_estimate == "vanet"
+    with pytest.raises(ValueError, match=r"vags\.view_estimate must be one of \('mean', 'vanet'\), got 'max'"):
+        C.replace(C.Config(), **{"vags.view_estimate": "max"})

@@ -295,13 +295,42 @@ def test_calibration_tracks_estimate_minus_outcome_of_greedy_attempts():
     success = jnp.array([True, False, True, False])
     direct = jnp.array([True, True, False, False])
     view = jnp.array([False, False, True, False])  # world 3 explored: not counted
-    cal = update_calibration(jnp.array([0.2, 0.0]), p_direct, p_view, success, direct, view, 0.5)
+    cal = update_calibration(jnp.array([0.2, 0.0, 0.6]), p_direct, p_view, success, direct, view, 0.5)
     # By hand: direct errors (0.9 - 1, 0.8 - 0) -> mean 0.35; 0.5 * 0.2 + 0.5 * 0.35 = 0.275.
     # View: one attempt, 0.7 - 1 = -0.3; 0.5 * 0 + 0.5 * -0.3 = -0.15.
-    np.testing.assert_allclose(np.asarray(cal), [0.275, -0.15], atol=1e-6)
+    # Mean success after a move: that attempt succeeded; 0.5 * 0.6 + 0.5 * 1 = 0.8.
+    np.testing.assert_allclose(np.asarray(cal), [0.275, -0.15, 0.8], atol=1e-6)
     none = jnp.zeros((4,), bool)
-    same = update_calibration(jnp.array([0.2, -0.1]), p_direct, p_view, success, none, none, 0.5)
-    np.testing.assert_allclose(np.asarray(same), [0.2, -0.1], atol=1e-6)  # no attempt: unchanged
+    same = update_calibration(jnp.array([0.2, -0.1, 0.6]), p_direct, p_view, success, none, none, 0.5)
+    np.testing.assert_allclose(np.asarray(same), [0.2, -0.1, 0.6], atol=1e-6)  # no attempt: unchanged
+
+
+def test_mean_view_estimate_replaces_vanets_value_by_the_runs_mean_success_after_a_move():
+    """view_estimate "mean": every world's p_view is calibration[2], whatever VANet says; the
+    direct estimate keeps its bias correction.  A 2-entry calibration (older runs) is refused."""
+    from vags_jax.policies.decision import decide, gate_score, initial_calibration
+
+    p_direct, p_view = jnp.array([0.9, 0.6, 0.75]), jnp.array([5.0, -3.0, 0.0])
+    cal = jnp.array([0.1, 0.3, 0.7])
+    # By hand: (0.9 - 0.1) - 0.7 = 0.1, (0.6 - 0.1) - 0.7 = -0.2, (0.75 - 0.1) - 0.7 = -0.05.
+    np.testing.assert_allclose(np.asarray(gate_score("success", None, p_direct, p_view, cal, "mean")),
+                               [0.1, -0.2, -0.05], atol=1e-6)
+    # The same calibration with VANet's estimate: (0.8) - (5.0 - 0.3) etc.
+    np.testing.assert_allclose(np.asarray(gate_score("success", None, p_direct, p_view, cal, "vanet")),
+                               [0.8 - 4.7, 0.5 + 3.3, 0.65 + 0.3], atol=1e-5)
+    with pytest.raises(ValueError, match="view_estimate=vanet"):
+        gate_score("success", None, p_direct, p_view, cal[:2], "mean")
+    # decide: VANet's largest value (9.0 in world 0) does not make world 0 move; a weak direct grasp does.
+    qg = np.zeros((2, 1, 2, 2), np.float32)
+    qg[:, 0, 1, 1] = 1.0
+    qs = np.zeros((2, 1, 2, 2), np.float32)
+    qs[:, 0, 1, 1] = [0.95, 0.5]
+    qv = np.zeros((2, 2, 2), np.float32)
+    qv[0, 0, 0] = 9.0
+    d = decide(jnp.asarray(qg), jnp.asarray(qv), -0.05, jnp.asarray(qs), "success", jnp.array([0.0, 0.0, 0.8]), "mean")
+    assert np.asarray(d.direct).tolist() == [True, False]
+    # A stage starts optimistic about moves (so that a "mean" gate measures them), without bias.
+    np.testing.assert_allclose(np.asarray(initial_calibration()), [0.0, 0.0, 1.0])
 
 
 def test_view_reward_hand_cases():

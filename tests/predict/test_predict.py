@@ -93,7 +93,7 @@ def run(tmp_path_factory, cfg):
     checkpoint.save_config(d, cfg)
     checkpoint.save(rundir.networks_dir(d, "stage3"), 4, {
         "gdnet": gd, "vanet": _qnet_variables(cfg, "vanet", 1), "success": gd, "threshold": np.float32(0.5),
-        "calibration": np.array([0.01, -0.02], np.float32)})
+        "calibration": np.array([0.01, -0.02, 0.7], np.float32)})
     ggcnn_stage.save_ggcnn(d, _ggcnn_params(3), {"steps": 0}, cfg)
     return d
 
@@ -224,8 +224,8 @@ def test_direct_grasp_equals_the_eval_policy(played, cfg):
     # The gate's figures: the success gate's score (calibrated estimates) against the threshold.
     gate = out["gate"]
     assert gate["kind"] == "success" and gate["threshold"] == -1e6 and gate["direct"] is True
-    assert gate["calibration"] == pytest.approx([0.01, -0.02])
-    assert gate["score"] == pytest.approx((gate["p_direct"] - 0.01) - (gate["p_view"] + 0.02), rel=1e-5)
+    assert gate["calibration"] == pytest.approx([0.01, -0.02, 0.7]) and gate["view_estimate"] == "mean"
+    assert gate["score"] == pytest.approx((gate["p_direct"] - 0.01) - 0.7, rel=1e-5)
     assert gate["score"] == pytest.approx(float(attempt.score[0]), rel=1e-6)
     assert "> threshold" in out["reason"]
     _same_outcome(played, 0)

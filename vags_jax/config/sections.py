@@ -643,6 +643,7 @@ class Stage:
 VAGS_LOCAL_PLANNERS = ("gdnet", "ggcnn")
 VAGS_GATES = ("success", "q")
 VAGS_VIEW_REWARDS = ("success", "eq5")
+VAGS_VIEW_ESTIMATES = ("mean", "vanet")
 
 
 @dataclass(frozen=True)
@@ -664,9 +665,14 @@ class Vags:
       over its last views (GDNet changed).  Stage 2 always gates with "q" (VANet and the
       success net are still learning).
     move_cost: estimated success a move must add ("success" gate).
-    calibration_decay: per-iteration decay of the running bias of each estimate ("success"
-      gate): the mean of estimate - outcome over stages 2-3's greedy attempts, subtracted before
-      comparing (VANet's largest value over the map is biased upwards).
+    view_estimate: the "success" gate's estimate of the success after a move.  "mean": the
+      running mean of that success over stages 2-3's greedy moves, one number for every state
+      (VANet's largest value did not rank that success: bench/RESULTS.md, "Viewpoints that
+      pay"); "vanet": VANet's largest Q on the state, less its running bias.
+    calibration_decay: per-iteration decay of the running means of the "success" gate: the bias
+      of each estimate (estimate - outcome over stages 2-3's greedy attempts, subtracted before
+      comparing; VANet's largest value over the map is biased upwards) and the success after a
+      move ("mean" view estimate).
     view_reward: VANet's reward.  "success": 1 when the grasp after the move succeeds, else 0;
       "eq5": paper eq. 5 as reconstructed: ``success_reward`` on success plus ``view_bonus``
       when GDNet's largest Q on the next global view exceeds the one before the move.
@@ -682,6 +688,7 @@ class Vags:
     threshold: Optional[float] = None
     threshold_quantile: float = 0.5
     move_cost: float = 0.05
+    view_estimate: str = "mean"
     calibration_decay: float = 0.9
     view_reward: str = "success"
     vanet_gamma: float = 0.0
@@ -693,6 +700,8 @@ class Vags:
         _check(self.local_planner in VAGS_LOCAL_PLANNERS,
                f"Vags.local_planner must be one of {VAGS_LOCAL_PLANNERS}, got {self.local_planner!r}")
         _check(self.gate in VAGS_GATES, f"Vags.gate must be one of {VAGS_GATES}, got {self.gate!r}")
+        _check(self.view_estimate in VAGS_VIEW_ESTIMATES,
+               f"Vags.view_estimate must be one of {VAGS_VIEW_ESTIMATES}, got {self.view_estimate!r}")
         _check(self.view_reward in VAGS_VIEW_REWARDS,
                f"Vags.view_reward must be one of {VAGS_VIEW_REWARDS}, got {self.view_reward!r}")
         if self.threshold is not None:

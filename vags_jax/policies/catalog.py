@@ -169,6 +169,10 @@ def vags_params(networks, cfg: Config, threshold=None) -> dict:
     if cfg.vags.local_planner == "ggcnn" and networks.ggcnn is None:
         raise ValueError("vags.local_planner=ggcnn needs a GG-CNN in the run (RUN/ggcnn): train one with "
                          "python train.py --stage ggcnn --out RUN")
+    if cfg.vags.gate == "success" and cfg.vags.view_estimate == "mean" and (
+            networks.calibration is None or networks.calibration.shape[0] < 3):
+        raise ValueError(f"the run's networks ({networks.source}) keep no mean success after a move (trained "
+                         f"before vags.view_estimate=mean): evaluate with --set vags.view_estimate=vanet")
     thr = gate_threshold(cfg.vags, networks.q_threshold) if threshold is None else threshold
     params = {"gdnet": networks.gdnet, "vanet": networks.vanet, "threshold": jnp.asarray(thr, jnp.float32)}
     if networks.ggcnn is not None:

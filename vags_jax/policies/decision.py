@@ -8,9 +8,10 @@ state and the world grasps directly where the score exceeds the threshold:
 
 * ``"q"`` (the paper): score = GDNet's largest Q, threshold = the calibrated Q threshold;
 * ``"success"``: score = p_direct - p_view, threshold = ``-vags.move_cost``, where p_direct is
-  the success net at GDNet's argmax and p_view VANet's largest Q (VANet trained with gamma 0 on
-  the success of the grasp after the move): move when a move is expected to add more than
-  ``move_cost`` of success.
+  the success net at GDNet's argmax and p_view the expected success of the grasp after a move
+  (``vags.view_estimate``: "mean", the running mean of that success over the run's greedy
+  moves; "vanet", VANet's largest Q, VANet trained with gamma 0 on that success): move when a
+  move is expected to add more than ``move_cost`` of success.
 
 A direct grasp is GDNet's argmax (1 motion).  Otherwise the camera moves to the viewpoint
 above VANet's argmax cell (``camera.viewpoint_pose``), takes the raw depth image there, and
@@ -81,30 +82,47 @@ def value_at(q: jax.Array, action: jax.Array) -> jax.Array:
 
 
 def gate_score(gate: str, q_max: jax.Array, p_direct: Optional[jax.Array], p_view: Optional[jax.Array],
-               calibration: Optional[jax.Array] = None):
+               calibration: Optional[jax.Array] = None, view_estimate: str = "vanet"):
     """The gate's score (B,): GDNet's largest Q ("q") or the calibrated p_direct - p_view
-    ("success"); calibration (2,) [direct, view]: each estimate's running bias (estimate minus
-    outcome, ``update_calibration``), subtracted from it (None: no correction)."""
+    ("success").  calibration (2,) or (3,) [bias direct, bias view, mean success after a move]
+    (``update_calibration``): each estimate's running bias (estimate minus outcome) is
+    subtracted from it (None: no correction).  view_estimate "mean" replaces p_view by the
+    third entry, the same for every world (``config.Vags.view_estimate``)."""
     if gate == "q":
         return q_max.astype(jnp.float32)
     if p_direct is None or p_view is None:
         raise ValueError("the 'success' gate needs the success net's and VANet's estimates")
-    cal = jnp.zeros((2,), jnp.float32) if calibration is None else jnp.asarray(calibration, jnp.float32)
-    return ((p_direct - cal[0]) - (p_view - cal[1])).astype(jnp.float32)
+    cal = jnp.zeros((3,), jnp.float32) if calibration is None else jnp.asarray(calibration, jnp.float32)
+    if view_estimate == "mean":
+        if cal.shape[0] < 3:
+            raise ValueError("vags.view_estimate='mean' needs the mean success after a move, which this "
+                             "calibration (2 entries, an older run) lacks: use vags.view_estimate=vanet")
+        view = jnp.broadcast_to(cal[2], jnp.shape(p_view))
+    else:
+        view = p_view - cal[1]
+    return ((p_direct - cal[0]) - view).astype(jnp.float32)
 
 
 def update_calibration(calibration: jax.Array, p_direct: jax.Array, p_view: jax.Array, success: jax.Array,
                        direct: jax.Array, view: jax.Array, decay: float) -> jax.Array:
-    """The running bias (2,) [direct, view] of the success estimates after one iteration:
-    p_direct, p_view (B,) the estimates, success (B,) bool the outcomes, direct / view (B,) bool
-    the greedy attempts of each kind.  Each entry moves to ``decay * old + (1 - decay) * mean(p -
-    success)`` over its attempts, and stays where it has none."""
+    """The running calibration (3,) [bias direct, bias view, mean success after a move] after
+    one iteration: p_direct, p_view (B,) the estimates, success (B,) bool the outcomes, direct /
+    view (B,) bool the greedy attempts of each kind.  Each entry moves to ``decay * old + (1 -
+    decay) * mean(x)`` over its attempts (x = p - success for the biases, success for the mean),
+    and stays where it has none."""
+    s = success.astype(jnp.float32)
     out = []
-    for i, (p, m) in enumerate(((p_direct, direct), (p_view, view))):
+    for i, (x, m) in enumerate(((p_direct - s, direct), (p_view - s, view), (s, view))):
         n = m.sum()
-        err = jnp.where(m, p - success.astype(jnp.float32), 0.0).sum() / jnp.maximum(n, 1)
-        out.append(jnp.where(n > 0, decay * calibration[i] + (1.0 - decay) * err, calibration[i]))
+        mean = jnp.where(m, x, 0.0).sum() / jnp.maximum(n, 1)
+        out.append(jnp.where(n > 0, decay * calibration[i] + (1.0 - decay) * mean, calibration[i]))
     return jnp.stack(out).astype(jnp.float32)
+
+
+def initial_calibration() -> jax.Array:
+    """(3,) float32 at a stage's start: no bias; an optimistic mean success after a move of 1, so
+    that a "mean" gate moves (and so measures that success) until the running mean says otherwise."""
+    return jnp.array([0.0, 0.0, 1.0], jnp.float32)
 
 
 def gate_threshold(vcfg: Vags, q_threshold) -> jax.Array:
@@ -124,15 +142,15 @@ def _check_maps(q_grasp, q_view) -> None:
 
 
 def decide(q_grasp: jax.Array, q_view: jax.Array, threshold, q_success: Optional[jax.Array] = None,
-           gate: str = "q", calibration: Optional[jax.Array] = None) -> Decision:
+           gate: str = "q", calibration: Optional[jax.Array] = None, view_estimate: str = "vanet") -> Decision:
     """The decision on Q maps: q_grasp (B, R, H, W), q_view (B, H, W), threshold scalar (or
-    (B,)), q_success (B, R, H, W) and calibration (2,) for the "success" gate; grasp directly
-    where the gate's score exceeds ``threshold``."""
+    (B,)), q_success (B, R, H, W), calibration (3,) and view_estimate for the "success" gate
+    (``gate_score``); grasp directly where the gate's score exceeds ``threshold``."""
     _check_maps(q_grasp, q_view)
     grasp, q_max = greedy(q_grasp)
     view, v_max = greedy(q_view)
     p_direct = None if q_success is None else value_at(q_success, grasp)
-    score = gate_score(gate, q_max, p_direct, v_max, calibration)
+    score = gate_score(gate, q_max, p_direct, v_max, calibration, view_estimate)
     return Decision(direct=score > threshold, grasp=grasp, view=view, q_max=q_max, score=score)
 
 
@@ -224,7 +242,7 @@ class VagsNets:
         """-> (Decision, GDNet's Q (B, R, H, W), VANet's Q (B, H, W)) on the global views."""
         q_grasp, q_view, q_success = self.q_maps(params, state.color, state.height)
         decision = decide(q_grasp, q_view, params["threshold"], q_success, self.cfg.vags.gate,
-                          params.get("calibration"))
+                          params.get("calibration"), self.cfg.vags.view_estimate)
         return decision, q_grasp, q_view
 
     def plan(self, params: dict, key, env: VagsEnv, state: EnvState):
@@ -235,6 +253,7 @@ class VagsNets:
         return attempt, decision, close, q_grasp, q_view
 
 
-__all__ = ["Decision", "CloseView", "greedy", "value_at", "gate_score", "update_calibration", "gate_threshold", "decide",
+__all__ = ["Decision", "CloseView", "greedy", "value_at", "gate_score", "update_calibration", "initial_calibration",
+           "gate_threshold", "decide",
            "fused_grasp",
            "close_view_grasp", "plan_attempt", "VagsNets"]

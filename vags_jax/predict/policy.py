@@ -137,7 +137,8 @@ class FramePolicy:
 
         has_ggcnn = os.path.isdir(ggcnn_dir(run_dir))
         vags_params(SimpleNamespace(success=() if "success" in parts else None, ggcnn=() if has_ggcnn else None,
-                                    q_threshold=np.float32(0.0), calibration=None, gdnet=None, vanet=None,
+                                    q_threshold=np.float32(0.0), gdnet=None, vanet=None,
+                                    calibration=np.zeros((3,), np.float32) if "calibration" in parts else None,
                                     source=f"{found[0]} step {s}"), cfg)
         if cfg.vags.local_planner == "ggcnn":
             self.ggcnn_camera = checkpoint.load_config(ggcnn_dir(run_dir)).camera
@@ -215,12 +216,14 @@ class FramePolicy:
                 "q_max": _json_float(g["q_max"][0])}
         if v.gate == "q":
             return gate, f"GDNet's largest Q {score:.4f} {rel} threshold {thr:.4f}: {verdict}"
-        cal = np.zeros(2) if self.params.get("calibration") is None else np.asarray(self.params["calibration"])
+        cal = np.zeros(3) if self.params.get("calibration") is None else np.asarray(self.params["calibration"])
         p_d, p_v = float(g["p_direct"][0]), float(g["p_view"][0])
         gate.update(p_direct=_json_float(p_d), p_view=_json_float(p_v), calibration=_json_floats(cal),
-                    move_cost=v.move_cost)
-        return gate, (f"success estimate of the direct grasp {p_d:.3f} (bias {cal[0]:+.3f}) against a grasp after "
-                      f"a move {p_v:.3f} (bias {cal[1]:+.3f}): score {score:+.4f} {rel} threshold {thr:+.4f}: {verdict}")
+                    move_cost=v.move_cost, view_estimate=v.view_estimate)
+        after = (f"the run's mean success after a move {cal[2]:.3f}" if v.view_estimate == "mean" else
+                 f"VANet's estimate of a grasp after a move {p_v:.3f} (bias {cal[1]:+.3f})")
+        return gate, (f"success estimate of the direct grasp {p_d:.3f} (bias {cal[0]:+.3f}) against {after}: "
+                      f"score {score:+.4f} {rel} threshold {thr:+.4f}: {verdict}")
 
     def _heightmap_grasp(self, action, position, yaw, q, view: str) -> dict:
         return {"view": view, "planner": "gdnet", "position": _json_floats(position),
@@ -264,7 +267,8 @@ def _global_program(params, depth, rgb, pose, *, cfg, cam, gdnet_only):
         out.update(grasp=grasp, q_max=q_max, score=q_max, direct=jnp.ones((1,), bool))
     else:
         q_grasp, q_view, q_success = nets.q_maps(params, color, height)
-        d = decision.decide(q_grasp, q_view, params["threshold"], q_success, cfg.vags.gate, params.get("calibration"))
+        d = decision.decide(q_grasp, q_view, params["threshold"], q_success, cfg.vags.gate, params.get("calibration"),
+                            cfg.vags.view_estimate)
         _, p_view = decision.greedy(q_view)
         out.update(grasp=d.grasp, q_max=d.q_max, score=d.score, direct=d.direct, view=d.view, p_view=p_view,
                    view_pose=camera.viewpoint_pose(d.view, height, cfg.workspace, cfg.camera))

@@ -157,8 +157,9 @@ class VagsNetworks:
     ({"params", "batch_stats"}; success None in runs from before the success net), GG-CNN's
     {"params"}, the "q" gate's threshold () float32 (``q_threshold``; ``evaluate.vags_params``
     turns it into the configured gate's threshold), and where they came from (``source``:
-    "stage3 step N" or "stage2 step N", static).  calibration: (2,) float32 the running bias
-    [direct, view] of the success estimates (None in runs from before it was kept)."""
+    "stage3 step N" or "stage2 step N", static).  calibration: (3,) float32 the running bias
+    [direct, view] of the success estimates and the mean success after a move
+    (``decision.update_calibration``; (2,) in older runs, None in runs from before it was kept)."""
 
     gdnet: Any
     vanet: Any
@@ -213,9 +214,9 @@ def load_vags(run_dir: str, cfg: Optional[Config] = None, step: Optional[int] = 
     parts = checkpoint.saved_parts(d, s)
     if "success" in parts:
         su, _ = checkpoint.restore_part(d, "success", _vars_target(cfg, "gdnet"), s)
-    if "calibration" in parts:
-        cal, _ = checkpoint.restore_part(d, "calibration", np.zeros((2,), np.float32), s)
-        cal = jnp.asarray(cal, jnp.float32)
+    if "calibration" in parts:  # (3,); (2,) in runs from before the mean success after a move was kept
+        arrays, _ = checkpoint.read(d, s, parts=["calibration"])
+        cal = jnp.asarray(np.ravel(next(iter(arrays["calibration"].values()))), jnp.float32)
     gg = None
     if os.path.isdir(ggcnn_stage.ggcnn_dir(run_dir)):
         gg, _ = ggcnn_stage.load_ggcnn(run_dir)

@@ -6,7 +6,8 @@ objects.  One *iteration* is, for every world at once:
   1. the gate (``vags_jax.policies.decision``): stage 2 moves the camera where GDNet's largest Q is at
      most the threshold (``vags.threshold``, or the value calibrated at stage 2's start);
      stage 3 uses ``vags.gate`` ("success": the success net's estimate of the direct grasp
-     against VANet's estimate of the grasp after a move, less ``vags.move_cost``);
+     against the expected success of the grasp after a move, ``vags.view_estimate``, less
+     ``vags.move_cost``);
   2. DAES (``vags_jax.rl.exploration``) picks the viewpoint among object pixels with probability
      epsilon (VANet's argmax otherwise); in stage 3 it also explores GDNet's direct grasps
      (stage 2 grasps directly at GDNet's argmax: GDNet is frozen);
@@ -51,8 +52,8 @@ from flax import struct
 from vags_jax import batching
 from vags_jax.rl import dqn, exploration, replay
 from vags_jax.config import Config, Stage, Vags
-from vags_jax.policies.decision import (Decision, gate_score, gate_threshold, greedy, plan_attempt, update_calibration,
-                               value_at)
+from vags_jax.policies.decision import (Decision, gate_score, gate_threshold, greedy, initial_calibration, plan_attempt,
+                                        update_calibration, value_at)
 from vags_jax.env import EnvState, VagsEnv
 from vags_jax.nets import initial_variables, make_qnet, nbv_net
 from vags_jax.nets.ggcnn import GGCNN
@@ -66,8 +67,8 @@ class VagsTrainState:
     stage 2; the success net has GDNet's architecture and learns with gamma 0);
     vanet_replay / gdnet_replay: prioritized replays of ``GraspTransition`` (VANet's actions
     (2,) [row, col]; GDNet's (3,)); ggcnn: GG-CNN's ``{"params"}`` (frozen); threshold: ()
-    float32, the "q" gate's threshold; calibration: (2,) float32 the running bias [direct, view]
-    of the success estimates (``decision.update_calibration``); gd_grasp: (B, 3) int32 GDNet's argmax [rotation, row, col] on each
+    float32, the "q" gate's threshold; calibration: (3,) float32 the running bias [direct, view]
+    of the success estimates and the mean success after a move (``decision.update_calibration``); gd_grasp: (B, 3) int32 GDNet's argmax [rotation, row, col] on each
     world's current global view; gd_qmax: (B,) float32 its largest Q; key: (2,) uint32;
     iteration, attempts: () int32.
     """
@@ -92,7 +93,7 @@ class VagsTrainState:
 METRICS = (
     "success_rate", "success_direct", "success_view", "view_share", "view_bonus_rate", "explored",
     "epsilon", "loss_vanet", "td_abs_vanet", "loss_gdnet", "td_abs_gdnet", "loss_success", "td_abs_success",
-    "q_max", "q_view_max", "p_direct", "p_view", "bias_direct", "bias_view",
+    "q_max", "q_view_max", "p_direct", "p_view", "bias_direct", "bias_view", "view_success_mean",
     "threshold", "rounds_ended", "rounds_cleared", "objects_on_table", "physics_errors", "buffer_overflow",
     "replay_size_vanet", "replay_size_gdnet", "updates", "attempts", "attempts_total", "worlds_resetting",
 )
@@ -223,7 +224,7 @@ class VagsStage:
         # Every leaf its own buffer (``run`` donates the state, and a buffer may be donated once).
         return VagsTrainState(env=env_state, gdnet=gdnet, vanet=vanet, success=success, vanet_replay=va_buffer,
                               gdnet_replay=gd_buffer, ggcnn=ggcnn_params, threshold=thr.reshape(()),
-                              calibration=jnp.zeros((2,), jnp.float32),
+                              calibration=initial_calibration(),
                               gd_grasp=gd_grasp, gd_qmax=gd_qmax, key=k_loop,
                               iteration=jnp.zeros((), jnp.int32), attempts=jnp.zeros((), jnp.int32))
 
@@ -258,7 +259,7 @@ class VagsStage:
         else:
             p_direct = self._p_direct(state.success, s, state.gd_grasp)
         p_view = q_view.reshape(q_view.shape[0], -1).max(axis=1)
-        score = gate_score(gate, state.gd_qmax, p_direct, p_view, state.calibration)
+        score = gate_score(gate, state.gd_qmax, p_direct, p_view, state.calibration, cfg.vags.view_estimate)
         thr = state.threshold if gate == "q" else gate_threshold(cfg.vags, state.threshold)
         return Decision(direct=score > thr, grasp=grasp, view=view, q_max=state.gd_qmax, score=score), p_direct, p_view
 
@@ -329,7 +330,7 @@ class VagsStage:
             "q_view_max": p_view.mean(),
             "p_direct": per((p_direct * acting).sum(), n_act),
             "p_view": per((p_view * acting).sum(), n_act),
-            "bias_direct": calibration[0], "bias_view": calibration[1],
+            "bias_direct": calibration[0], "bias_view": calibration[1], "view_success_mean": calibration[2],
             "threshold": state.threshold,
             "rounds_ended": (over & acting).sum(),
             "rounds_cleared": (acting & (env.n_remaining(s2) == 0)).sum(),

@@ -31,6 +31,7 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
+from vags_jax import batching
 from vags_jax.config import Config, check_vpg_fits
 from vags_jax.env import EnvState, VagsEnv
 from vags_jax.env.push import step_with_pushes
@@ -127,8 +128,10 @@ class VpgStage:
         key, k_act, k_obs, k_n, k_reset, k_learn = jax.random.split(state.key, 6)
         s = state.env
         eps = exploration.epsilon(state.iteration, cfg.exploration)
-        q = self._apply({"params": state.learner.params, "batch_stats": state.learner.batch_stats},
-                        s.color, s.height, False)  # (B, 2R, H, W)
+        variables = {"params": state.learner.params, "batch_stats": state.learner.batch_stats}
+        # (B, 2R, H, W), in world groups of net.forward_batch (inference memory, as stages 1-3)
+        q = batching.map_in_groups(lambda c, h: self._apply(variables, c, h, False), (s.color, s.height),
+                                   cfg.net.forward_batch)
         action, explored = vpg.select(k_act, q, eps)
         attempt = vpg.attempt_of(env, s, action)
         resetting = self.round_over(s, state.pushes)  # rounds that ended last iteration
