@@ -3,6 +3,7 @@ on hand-made reports, and a tiny comparison whose methods all play the same scen
 import csv
 import json
 
+import numpy as np
 import pytest
 
 import eval as eval_cli
@@ -104,3 +105,22 @@ def test_compare_refuses_a_ggcnn_method_without_a_ggcnn(tmp_path, capsys):
     assert eval_cli.main(["--run", str(run), "--compare", "random", "mvp"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("eval.py: error: --compare mvp:")
+
+
+def test_scenes_digest_is_of_the_draws_not_of_the_settled_poses():
+    """The same draws (counts, colours, sizes) with other settled poses (GPU physics is not bit
+    for bit repeatable) give the same digest; another size or count gives another one."""
+    from types import SimpleNamespace
+
+    from vags_jax.benchmark.protocol import scenes_digest
+
+    def state(qpos, size, n):
+        sim = SimpleNamespace(data=SimpleNamespace(qpos=np.asarray(qpos, np.float32)), n_objects=np.array(n, np.int32),
+                              geom_rgb=np.full((2, 3, 3), 7, np.uint8), obj_size=np.asarray(size, np.float32))
+        return SimpleNamespace(sim=sim)
+
+    size = np.full((2, 4, 3), 0.02)
+    a = scenes_digest(state(np.zeros((2, 7)), size, [3, 4]))
+    assert a == scenes_digest(state(np.full((2, 7), 1e-4), size, [3, 4]))
+    assert a != scenes_digest(state(np.zeros((2, 7)), size * 1.1, [3, 4]))
+    assert a != scenes_digest(state(np.zeros((2, 7)), size, [3, 5]))

@@ -94,7 +94,7 @@ def check_same_scenes(reports: dict) -> None:
         a, b = rep.get("scenes"), first.get("scenes")
         if a is not None and b is not None and a != b:
             raise ValueError(f"--compare: {label} played other scenes than {first_label} (scene digests {a} and "
-                             f"{b}): their configs' scene, camera or object settings differ")
+                             f"{b}): their configs' scene or object settings differ")
 
 
 def write_comparison(reports: dict, path: str, meta: Optional[dict] = None) -> str:
