@@ -5,7 +5,8 @@
 # most 8 files):
 #   1. train   the whole pipeline (train.py --config gpu, RUN=runs/vp; --resume once started)
 #   2. eval    POLICIES (default: vags, vags-no-viewpoint = --no-viewpoint, vags-vanet-estimate =
-#              --set vags.view_estimate=vanet), groups 1-10 x 50 rounds, seeds SEEDS (default "11 12 13"),
+#              --set vags.view_estimate=vanet; vags-move-cost-X = --set vags.move_cost=X), groups 1-10 x 50
+#              rounds, seeds SEEDS (default "11 12 13"),
 #              each one eval.py --seeds (compiled once), one after the other: two side by side
 #              ran out of GPU memory (each process takes 75 % of it; on-demand allocation,
 #              XLA_PYTHON_CLIENT_PREALLOCATE=false, failed a 32.8 GiB allocation in stage 1)
@@ -55,7 +56,8 @@ fi
 seeds=${SEEDS:-11 12 13}
 missing() { for s in $seeds; do [ -f "$res/seed$s/eval_$1.json" ] || printf '%s,' "$s"; done; }
 policies=${POLICIES:-vags vags-no-viewpoint vags-vanet-estimate}
-flags() { case $1 in vags-no-viewpoint) echo --no-viewpoint;; vags-vanet-estimate) echo --set vags.view_estimate=vanet;; esac; }
+flags() { case $1 in vags-no-viewpoint) echo --no-viewpoint;; vags-vanet-estimate) echo --set vags.view_estimate=vanet;;
+                  vags-move-cost-*) echo --set vags.move_cost=${1#vags-move-cost-};; esac; }
 if [ -n "$(for p in $policies; do missing $p; done)" ]; then
   for p in $policies; do
     m=$(missing $p); [ -z "$m" ] && continue

@@ -23,6 +23,7 @@ from typing import Callable
 import jax
 import jax.numpy as jnp
 
+from vags_jax import batching
 from vags_jax.config import Config, Vpg
 from vags_jax.env import Attempt, EnvState, VagsEnv
 from vags_jax.env.push import push_pose
@@ -99,7 +100,9 @@ def vpg_plan(cfg: Config) -> Callable:
 
     def plan(params, key, env: VagsEnv, state: EnvState) -> Attempt:
         del key
-        q = net.apply(params, state.color, state.height, False)
+        # (B, 2R, H, W), in world groups of net.forward_batch (inference memory)
+        q = batching.map_in_groups(lambda c, h: net.apply(params, c, h, False), (state.color, state.height),
+                                   cfg.net.forward_batch)
         action = greedy(q)
         score = q.reshape(q.shape[0], -1).max(axis=1)
         return attempt_of(env, state, action).replace(score=score)
