@@ -658,6 +658,31 @@ def test_resume_raising_iterations_passes_the_checks(tmp_path, fake_run):
     assert set(plan.arrays) == {"env", "learner", "replay", "key", "iteration", "attempts"}
 
 
+@pytest.mark.parametrize("kind", ["foreign-network", "old-calibration"])
+def test_resume_checks_a_stage2_checkpoint_before_anything_runs(kind, tmp_path, capsys, fake_run, no_compiling):
+    """A run whose stage 1 is done and whose stage 2 stopped at iteration 1: --resume reads stage
+    2's checkpoint metadata up front and refuses one of another network (or a calibration of 2
+    entries, from before the mean success after a move was kept), in one line, run untouched."""
+    from vags_jax.stages import rundir
+
+    run = fake_run(tmp_path)
+    cfg = C.replace(checkpoint.load_config(run), **{"stage1.iterations": 4})
+    checkpoint.save_config(run, cfg)
+    other = C.replace(cfg, **{"net.small_width": cfg.net.small_width * 2}) if kind == "foreign-network" else cfg
+    gd = rundir.learner_target(other, "gdnet")
+    d = rundir.stage_dir(run, "stage2")
+    checkpoint.save(d, 1, {"gdnet": gd, "vanet": rundir.learner_target(other, "vanet"), "success": gd,
+                           "calibration": np.zeros((3 if kind == "foreign-network" else 2,), np.float32)})
+    with open(os.path.join(d, "metrics.jsonl"), "w") as f:
+        f.write(json.dumps({"iteration": 0, "loss_vanet": 0.1}) + "\n")
+    before = _snapshot(run)
+    code, line = _cli(train.main, ["--out", run, "--resume", "--quiet"], capsys)
+    assert code == 2 and line.startswith("train.py: error: checkpoint 1 in ")
+    assert re.search(r"stage2 does not fit this run's state: it was written with a different config", line), line
+    assert ("calibration" in line) == (kind == "old-calibration"), line
+    assert _snapshot(run) == before, "a refused --resume must not touch the run"
+
+
 # ----------------------------------------------------------------------------- eval.py flags
 
 EVAL_FLAG_CASES = [

@@ -387,6 +387,15 @@ def check_layout(run_dir: str, step: int, arrays: dict, want: dict) -> None:
                        for n, leaves in arrays.items()})
 
 
+def check_parts(run_dir: str, step: int, want: dict) -> None:
+    """Checks the parts named in ``want`` ({part: pytree of arrays or ShapeDtypeStructs}) against
+    checkpoint ``step``'s metadata, reading no array: CheckpointError (another config) on any
+    difference.  Lets a caller refuse a checkpoint before anything is built or compiled."""
+    mngr, step = _open_step(run_dir, step)
+    mngr.close()
+    _check_fits(run_dir, step, {n: _abstract(t) for n, t in want.items()})
+
+
 def restore(run_dir: str, target: Any, step: Optional[int] = None) -> tuple[Any, int]:
     """Restores into the structure of ``target``; returns ``(state, step)``.
 

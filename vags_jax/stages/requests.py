@@ -13,6 +13,8 @@ import json
 import os
 from types import SimpleNamespace
 
+import numpy as np
+
 from vags_jax import cli
 from vags_jax import config as C
 from vags_jax.ggcnn import data as ggcnn_data
@@ -195,6 +197,16 @@ def check_net_init(cfg) -> None:
     check_init(cfg.net, make_qnet(cfg.net, "gdnet"), H, H)
 
 
+def check_vags_checkpoint(out: str, cfg, name: str, step: int) -> None:
+    """Stage 2 / 3's (or NBV's) checkpoint ``step`` against the config, from its metadata alone:
+    its learners (GDNet, VANet or NBV's network, the success net) and the gate's calibration.
+    CheckpointError (one line, another config) before anything is built or compiled."""
+    gd = rundir.learner_target(cfg, "gdnet")
+    want = {"gdnet": gd, "vanet": rundir.learner_target(cfg, "nbv" if name == "nbv" else "vanet"), "success": gd,
+            "calibration": np.zeros((3,), np.float32)}
+    checkpoint.check_parts(rundir.stage_dir(out, name), step, want)
+
+
 def read_stage1_checkpoint(out: str, cfg, step: int) -> dict:
     """Stage 1's checkpoint ``step`` read into host memory and checked against the config
     (before anything is compiled) -> its arrays for ``checkpoint.fit``."""
@@ -313,6 +325,10 @@ def prepare_pipeline(args, only):
     done1 = rundir.progress(args.out, "stage1")
     if only is None and 0 < done1 < cfg.stage1.iterations:  # checked now, not after GG-CNN's minutes
         stage1_arrays = read_stage1_checkpoint(args.out, cfg, done1)
+    for name in ("stage2", "stage3", "nbv") if only is None else (only,):
+        done = rundir.progress(args.out, name)
+        if name != "stage1" and 0 < done < rundir.total(cfg, name):  # resumed later: checked now
+            check_vags_checkpoint(args.out, cfg, name, done)
     return SimpleNamespace(cfg=cfg, fresh=False, changed=changed, data_dir=data_dir, stage1_arrays=stage1_arrays)
 
 
