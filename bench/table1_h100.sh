@@ -1,7 +1,6 @@
 #!/usr/bin/env bash
-# Table 1 and Fig. 7 of the paper on one H100: VAGS, GG-CNN, MVP, NBV (and VPG when the policy
-# exists) on the same scenes, groups 1-10 x 50 rounds, on the default objects and on
-# --objects unseen.  Resumable: every call does what is left, in this order, within BUDGET
+# Table 1 and Fig. 7 of the paper on one H100: VAGS, GG-CNN, MVP, NBV and VPG on the same
+# scenes, groups 1-10 x 50 rounds, on the default objects and on --objects unseen.  Resumable: every call does what is left, in this order, within BUDGET
 # seconds (default 560, for device calls of at most 10 minutes), and says "all done" at the end:
 #   1. train  RUN (default runs/table1; give an existing VAGS run to reuse it): the whole
 #             pipeline with GG-CNN (train.py --config gpu --set vags.train_ggcnn=true), resumed
