@@ -683,6 +683,32 @@ def test_resume_checks_a_stage2_checkpoint_before_anything_runs(kind, tmp_path, 
     assert _snapshot(run) == before, "a refused --resume must not touch the run"
 
 
+def test_a_chunk_out_of_accelerator_memory_is_one_line_with_what_to_lower(tmp_path, capsys):
+    """XLA's RESOURCE_EXHAUSTED in a chunk (VPG's first H100 run asked for 48.44 GiB) ends the
+    stage with one line: what XLA tried, the settings to lower, what was kept; timings.jsonl says
+    out_of_memory."""
+    from types import SimpleNamespace
+
+    class Stage:
+        def run(self, state, n):
+            raise jax.errors.JaxRuntimeError("RESOURCE_EXHAUSTED: Out of memory while trying to allocate 48.44GiB "
+                                             "with allocator GPU_0_bfc on device 0.\nmore lines")
+
+    out = str(tmp_path)
+    args = SimpleNamespace(chunk=2, checkpoint_every=1, quiet=True, out=out, max_minutes=None)
+    state = SimpleNamespace(attempts=np.int32(0))
+    _, it, status, _, _ = driver.run_chunks("vpg", Stage(), state, 0, 4, out, args, None)
+    assert it == 0 and status.startswith("out of accelerator memory in vpg (Out of memory while trying to "
+                                         "allocate 48.44GiB")
+    assert "lower vpg.n_worlds or net.forward_batch" in status and "nothing was saved" in status
+    assert driver.end_of_segment(args, "vpg", 0, it, 0.0, status)
+    err = capsys.readouterr().err  # the compile notice, then the error
+    assert "Traceback" not in err
+    assert err.strip().splitlines()[-1].startswith("train.py: error: out of accelerator memory in vpg")
+    with open(os.path.join(out, "timings.jsonl")) as f:
+        assert json.loads(f.readlines()[-1])["status"] == "out_of_memory"
+
+
 # ----------------------------------------------------------------------------- eval.py flags
 
 EVAL_FLAG_CASES = [

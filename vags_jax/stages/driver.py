@@ -322,9 +322,16 @@ def run_chunks(name: str, stage, state, start_it: int, total: int, out_dir: str,
         n = min(chunk, total - it)
         tc = time.time()
         good = state  # the last state whose losses and Q values were finite
-        with progress.compile_step(f"{name}'s chunk of {n} iterations", log if n_chunks == 0 else None) as clock:
-            state, m = stage.run(state, n)
-            m = jax.device_get(m)
+        try:
+            with progress.compile_step(f"{name}'s chunk of {n} iterations", log if n_chunks == 0 else None) as clock:
+                state, m = stage.run(state, n)
+                m = jax.device_get(m)
+        except jax.errors.JaxRuntimeError as e:
+            if "RESOURCE_EXHAUSTED" not in str(e):
+                raise
+            if not args.quiet:
+                print(file=sys.stderr)
+            return good, it, out_of_memory(name, e, saved_it, out_dir), grasps_done, None
         dt = time.time() - tc
         run_s, run_its = run_s + max(dt - clock.seconds, 0.0), run_its + n
         with guard():
@@ -378,11 +385,25 @@ def log_timing(out: str, name: str, start_it: int, it: int, wall_s: float, statu
                             "status": status, "time": time.strftime("%Y-%m-%dT%H:%M:%S")}) + "\n")
 
 
+OUT_OF_MEMORY = "out of accelerator memory"  # how run_chunks' status starts when a chunk ran out of it
+
+
+def out_of_memory(name: str, e: Exception, saved_it, out_dir: str) -> str:
+    """run_chunks' one-line status for a chunk that ran out of accelerator memory: XLA's own
+    first line (what it tried to allocate), the settings that lower the need, the checkpoint kept."""
+    what = str(e).split("\n")[0].replace("RESOURCE_EXHAUSTED: ", "")[:160]
+    kept = (f"the last checkpoint is iteration {saved_it} in {os.path.join(out_dir, checkpoint.CHECKPOINT_DIR)}"
+            if saved_it else "nothing was saved")
+    return (f"{OUT_OF_MEMORY} in {name} ({what}): lower {name}.n_worlds or net.forward_batch (--set on a new run), "
+            f"or use a device with more memory; {kept}")
+
+
 def end_of_segment(args, name: str, start_it: int, it: int, t0: float, status: str) -> bool:
     """Logs a stage segment's wall clock (timings.jsonl) and says how it ended; True when the
-    learning diverged (``status`` is then the message)."""
+    learning diverged or ran out of memory (``status`` is then the message)."""
     ok = status in ("done", "out_of_time", "interrupted")
-    log_timing(args.out, name, start_it, it, time.time() - t0, status if ok else "diverged")
+    failed = "out_of_memory" if status.startswith(OUT_OF_MEMORY) else "diverged"
+    log_timing(args.out, name, start_it, it, time.time() - t0, status if ok else failed)
     if not ok:
         print(f"{PROG}: error: {status}", file=sys.stderr)
     elif status == "out_of_time":
