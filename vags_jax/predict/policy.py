@@ -138,7 +138,8 @@ class FramePolicy:
         has_ggcnn = os.path.isdir(ggcnn_dir(run_dir))
         vags_params(SimpleNamespace(success=() if "success" in parts else None, ggcnn=() if has_ggcnn else None,
                                     q_threshold=np.float32(0.0), gdnet=None, vanet=None,
-                                    calibration=np.zeros((3,), np.float32) if "calibration" in parts else None,
+                                    calibration=(np.zeros(checkpoint.part_shapes(d, s, "calibration")[0], np.float32)
+                                                 if "calibration" in parts else None),
                                     source=f"{found[0]} step {s}"), cfg)
         if cfg.vags.local_planner == "ggcnn":
             self.ggcnn_camera = checkpoint.load_config(ggcnn_dir(run_dir)).camera

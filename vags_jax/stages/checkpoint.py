@@ -416,6 +416,11 @@ def saved_parts(run_dir: str, step: int) -> list[str]:
     return sorted(_saved_tree(run_dir, step))
 
 
+def part_shapes(run_dir: str, step: int, name: str) -> list[tuple]:
+    """The shapes of part ``name``'s leaves in checkpoint ``step``, from its metadata alone."""
+    return [tuple(m.shape) for m in _saved_tree(run_dir, step)[name].values()]
+
+
 def restore_part(run_dir: str, name: str, target: Any, step: Optional[int] = None) -> tuple[Any, int]:
     """Restores only the top-level part ``name`` (e.g. "learner") into ``target``'s structure.
     Errors as for ``restore``."""
