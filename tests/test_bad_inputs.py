@@ -683,6 +683,24 @@ def test_resume_checks_a_stage2_checkpoint_before_anything_runs(kind, tmp_path, 
     assert _snapshot(run) == before, "a refused --resume must not touch the run"
 
 
+def test_vpg_resume_checks_its_checkpoint_before_anything_runs(tmp_path, capsys, no_compiling):
+    """train.py --stage vpg --resume on a VPG checkpoint of another network: one line, run untouched."""
+    from vags_jax.stages import vpg as vpg_stage
+
+    run = str(tmp_path / "run")
+    d = vpg_stage.vpg_dir(run)
+    cfg = C.replace(C.tiny(), **TINY_TEST_OVERRIDES)
+    checkpoint.save_config(d, cfg)
+    other = C.replace(cfg, **{"net.small_width": cfg.net.small_width * 2})
+    checkpoint.save(d, 1, {"learner": vpg_stage.learner_target(other)})
+    with open(os.path.join(d, "metrics.jsonl"), "w") as f:
+        f.write(json.dumps({"iteration": 0, "loss": 0.1}) + "\n")
+    before = _snapshot(run)
+    code, line = _cli(train.main, ["--stage", "vpg", "--out", run, "--resume", "--quiet"], capsys)
+    assert code == 2 and re.search(r"checkpoint 1 in .*vpg does not fit this run's state", line), line
+    assert _snapshot(run) == before
+
+
 def test_a_chunk_out_of_accelerator_memory_is_one_line_with_what_to_lower(tmp_path, capsys):
     """XLA's RESOURCE_EXHAUSTED in a chunk (VPG's first H100 run asked for 48.44 GiB) ends the
     stage with one line: what XLA tried, the settings to lower, what was kept; timings.jsonl says

@@ -369,4 +369,5 @@ def prepare_vpg(args) -> SimpleNamespace:
             f"{d} is already at iteration {step}: nothing to train (config.json unchanged); pass --set "
             f"vpg.iterations=N with N > {step} to train further"))
     check_metrics_file(d)
+    checkpoint.check_parts(d, step, {"learner": vpg_stage.learner_target(cfg)})  # its network, before any compile
     return SimpleNamespace(cfg=cfg, step=step, done=None)

@@ -188,7 +188,7 @@ def learner_target(cfg: Config) -> dqn.TrainState:
     """Host zeros shaped like VPG's learner for ``cfg`` (a restore target; nothing compiled)."""
     H = cfg.workspace.heightmap_px
     net = make_vpg_net(cfg.net)
-    shapes = jax.eval_shape(lambda k: dqn.create_train_state(init_qnet(k, net, H, H), cfg.dqn), jax.random.PRNGKey(0))
+    shapes = jax.eval_shape(lambda: dqn.create_train_state(init_qnet(jax.random.PRNGKey(0), net, H, H), cfg.dqn))
     return jax.tree.map(lambda x: np.zeros(x.shape, x.dtype), shapes)
 
 
