@@ -127,18 +127,11 @@ def main_compare(args) -> int:
     log = lambda s: print(s, file=sys.stderr, flush=True)  # noqa: E731
     results = CMP.play_methods(plan, lambda mplan: requests.policy_of(mplan, args), log)
     try:
-        CMP.check_same_scenes(results)
-    except ValueError as e:
+        CMP.publish(results, plan.out, args.plot, {"seed": plan.seed, "groups": plan.groups, "rounds": plan.rounds},
+                    log)
+    except ValueError as e:  # the methods played other scenes
         print(f"{PROG}: error: {e}", file=sys.stderr)
         return 1
-    print(CMP.table1(results))
-    if plan.out:
-        csv_path = CMP.write_comparison(results, plan.out, {"seed": plan.seed, "groups": plan.groups,
-                                                           "rounds": plan.rounds})
-        log(f"wrote {plan.out} and {csv_path}")
-    if args.plot:
-        reports.plot_by_objects(results, args.plot)
-        log(f"wrote {args.plot}")
     return 0
 
 

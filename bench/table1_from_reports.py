@@ -22,7 +22,6 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 def main(argv=None) -> int:
     from vags_jax.benchmark import compare as CMP
-    from vags_jax.benchmark import reports as R
 
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("reports", nargs="+", help="eval.py report .json files, one per method")
@@ -35,21 +34,15 @@ def main(argv=None) -> int:
         with open(path) as f:
             rep = json.load(f)
         loaded[rep.get("policy") or os.path.basename(path)] = rep
-    check = {k: ({**v, "scenes": None} if args.ignore_digests else v) for k, v in loaded.items()}
+    first = next(iter(loaded.values()))
+    meta = {"seed": first.get("seed"), "groups": first.get("groups"), "rounds": first.get("rounds"),
+            "scene_digests_checked": not args.ignore_digests, "reports": [os.path.basename(r) for r in args.reports]}
     try:
-        CMP.check_same_scenes(check)
+        CMP.publish(loaded, args.out, args.plot, meta, lambda m: print(m, file=sys.stderr),
+                    digests=not args.ignore_digests)
     except ValueError as e:
         print(f"table1_from_reports: {e}", file=sys.stderr)
         return 1
-    print(CMP.table1(loaded))
-    if args.out:
-        first = next(iter(loaded.values()))
-        CMP.write_comparison(loaded, args.out, {"seed": first.get("seed"), "groups": first.get("groups"),
-                                                "rounds": first.get("rounds"),
-                                                "scene_digests_checked": not args.ignore_digests,
-                                                "reports": [os.path.basename(r) for r in args.reports]})
-    if args.plot:
-        R.plot_by_objects(loaded, args.plot)
     return 0
 
 

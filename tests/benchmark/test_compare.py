@@ -49,6 +49,7 @@ def test_table1_json_and_csv_from_hand_made_reports(tmp_path):
     CMP.check_same_scenes(reports)
     with pytest.raises(ValueError, match="played other scenes"):
         CMP.check_same_scenes({**reports, "c": _report("c", 1, 1, 1, 4, scenes="xyz")})
+    CMP.check_same_scenes({**reports, "c": _report("c", 1, 1, 1, 4, scenes="xyz")}, digests=False)
     with pytest.raises(ValueError, match="played rounds 5"):
         CMP.check_same_scenes({**reports, "c": _report("c", 1, 1, 1, 5)})
 

@@ -24,6 +24,7 @@ import jax
 import numpy as np
 
 from vags_jax.benchmark import protocol as E
+from vags_jax.benchmark import reports
 from vags_jax.benchmark.metrics import wilson_interval
 
 CSV_COLUMNS = ("method", "policy", "n_objects", "rounds", "attempts", "successes", "grasp_success_rate",
@@ -80,9 +81,9 @@ def comparison_rows(reports: dict) -> list[dict]:
     return rows
 
 
-def check_same_scenes(reports: dict) -> None:
-    """ValueError unless every report played the same seed, groups, rounds and (where recorded)
-    the same scenes."""
+def check_same_scenes(reports: dict, digests: bool = True) -> None:
+    """ValueError unless every report played the same seed, groups, rounds and (where recorded,
+    and unless ``digests`` is False) the same scenes."""
     if not reports:
         return
     first_label, first = next(iter(reports.items()))
@@ -92,7 +93,7 @@ def check_same_scenes(reports: dict) -> None:
                 raise ValueError(f"--compare: {label} played {key} {rep.get(key)}, {first_label} {first.get(key)}: "
                                  f"a table needs every method on the same scenes (same --seed, --groups, --rounds)")
         a, b = rep.get("scenes"), first.get("scenes")
-        if a is not None and b is not None and a != b:
+        if digests and a is not None and b is not None and a != b:
             raise ValueError(f"--compare: {label} played other scenes than {first_label} (scene digests {a} and "
                              f"{b}): their configs' scene or object settings differ")
 
@@ -117,6 +118,20 @@ def write_comparison(reports: dict, path: str, meta: Optional[dict] = None) -> s
 
 
 
+def publish(results: dict, out: Optional[str], plot: Optional[str], meta: dict, log: Callable,
+            digests: bool = True) -> None:
+    """Table 1 of ``results`` ({label: report}) after ``check_same_scenes`` (its ValueError
+    comes before anything is printed or written): printed to stdout, as JSON + CSV at ``out``
+    (``meta`` added to the JSON) and as Fig. 7 at ``plot`` (PNG), each optional."""
+    check_same_scenes(results, digests)
+    print(table1(results))
+    if out:
+        csv_path = write_comparison(results, out, meta)
+        log(f"wrote {out} and {csv_path}")
+    if plot:
+        reports.plot_by_objects(results, plot)
+        log(f"wrote {plot}")
+
 
 def play_methods(plan, policy_of: Callable, log: Callable) -> dict:
     """Every method of a checked comparison (``requests.prepare_compare``) played in ONE
@@ -140,4 +155,4 @@ def play_methods(plan, policy_of: Callable, log: Callable) -> dict:
 
 
 __all__ = ["CSV_COLUMNS", "with_intervals", "table1", "comparison_rows", "check_same_scenes", "write_comparison",
-           "play_methods"]
+           "publish", "play_methods"]

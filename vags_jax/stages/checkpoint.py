@@ -426,7 +426,7 @@ def restore_part(run_dir: str, name: str, target: Any, step: Optional[int] = Non
     Errors as for ``restore``."""
     mngr, step = _open_step(run_dir, step)
     mngr.close()
-    _check_fits(run_dir, step, {name: _abstract(target)})
+    check_parts(run_dir, step, {name: target})
     arrays, step = read(run_dir, step, parts=[name])
     return _unflatten(target, {k: jax.numpy.asarray(v) for k, v in arrays[name].items()}), step
 

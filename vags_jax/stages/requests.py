@@ -325,9 +325,9 @@ def prepare_pipeline(args, only):
     done1 = rundir.progress(args.out, "stage1")
     if only is None and 0 < done1 < cfg.stage1.iterations:  # checked now, not after GG-CNN's minutes
         stage1_arrays = read_stage1_checkpoint(args.out, cfg, done1)
-    for name in ("stage2", "stage3", "nbv") if only is None else (only,):
+    for name in ("stage2", "stage3", "nbv"):  # a stage resumed later: its checkpoint checked now
         done = rundir.progress(args.out, name)
-        if name != "stage1" and 0 < done < rundir.total(cfg, name):  # resumed later: checked now
+        if only in (None, name) and 0 < done < rundir.total(cfg, name):
             check_vags_checkpoint(args.out, cfg, name, done)
     return SimpleNamespace(cfg=cfg, fresh=False, changed=changed, data_dir=data_dir, stage1_arrays=stage1_arrays)
 

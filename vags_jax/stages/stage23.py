@@ -68,8 +68,8 @@ class VagsTrainState:
     vanet_replay / gdnet_replay: prioritized replays of ``GraspTransition`` (VANet's actions
     (2,) [row, col]; GDNet's (3,)); ggcnn: GG-CNN's ``{"params"}`` (frozen); threshold: ()
     float32, the "q" gate's threshold; calibration: (3,) float32 the running bias [direct, view]
-    of the success estimates and the mean success after a move (``decision.update_calibration``); gd_grasp: (B, 3) int32 GDNet's argmax [rotation, row, col] on each
-    world's current global view; gd_qmax: (B,) float32 its largest Q; key: (2,) uint32;
+    of the success estimates and the mean success after a move (``decision.update_calibration``);
+    gd_grasp: (B, 3) int32 GDNet's argmax [rotation, row, col] on each world's current global view; gd_qmax: (B,) float32 its largest Q; key: (2,) uint32;
     iteration, attempts: () int32.
     """
 
