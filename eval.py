@@ -113,6 +113,7 @@ def parse_args(argv=None):
                         "just holds the workspace (docs/benchmark.md); 'legacy': the first benchmark's "
                         "scenes (fixed blocks scattered apart, noiseless camera from the old pose), for "
                         "comparisons with earlier results")
+    cli.add_cache_dir(p)
     p.add_argument("--verbose", action="store_true",
                    help="show third-party logs (Warp kernel loading, absl / orbax INFO), silenced by default")
     return p.parse_args(argv)
@@ -138,6 +139,9 @@ def main_compare(args) -> int:
 def main(argv=None) -> int:
     args = parse_args(argv)  # bad flags: one line, exit code 2
     cli.quiet_third_party(args.verbose)
+    error = cli.use_compile_cache(PROG, args.cache_dir)
+    if error is not None:
+        return error
     if args.compare:
         return main_compare(args)
     try:

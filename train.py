@@ -41,6 +41,8 @@ Ctrl-C or SIGTERM stops at the end of the chunk in flight, with a checkpoint and
 ("interrupted at stage1 iteration N; --resume continues"; exit code 130, 143 for SIGTERM); a
 second Ctrl-C abandons the chunk and keeps the last checkpoint.  A world count whose lower bound
 of device memory (vags_jax/stages/memory.py) exceeds the device's is refused before compiling.
+Compiled programs are cached on disk (--cache-dir, default ~/.cache/vags_jax/compiled): a
+resumed or repeated run loads them instead of compiling.
 """
 from __future__ import annotations
 
@@ -78,7 +80,11 @@ def parse_args(argv=None):
                    help="iterations (--stage ggcnn: updates) per jitted chunk (metrics/progress/checkpoint "
                         "granularity); default: auto")
     p.add_argument("--checkpoint-every", type=cli.int_in(1, 10**6), default=None,
-                   help="checkpoint every N chunks (default 1)")
+                   help="checkpoint every N chunks (default: by time, see --checkpoint-minutes)")
+    p.add_argument("--checkpoint-minutes", type=cli.positive_float(10**6), default=None,
+                   help="without --checkpoint-every: checkpoint at the first chunk boundary this many minutes "
+                        "after the last checkpoint (default 5); a stage's end, --max-minutes and Ctrl-C always "
+                        "checkpoint")
     p.add_argument("--max-minutes", type=cli.positive_float(10**6), default=None,
                    help="stop (with a checkpoint) once this much wall time has passed")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -90,6 +96,7 @@ def parse_args(argv=None):
                         "human summary then goes to stderr")
     p.add_argument("--verbose", action="store_true",
                    help="show third-party logs (Warp kernel loading, absl / orbax INFO), silenced by default")
+    cli.add_cache_dir(p)
     p.add_argument("--tensorboard", default=None, metavar="DIR",
                    help="also stream every metrics row to TensorBoard event files in DIR (needs the "
                         "tensorboard extra: pip install 'vags_jax[tensorboard]')")
@@ -101,7 +108,8 @@ def main(argv=None, programs=None) -> int:
     a ``driver.Programs`` to reuse programs built by an earlier call in this process."""
     args = parse_args(argv)  # bad flags: one line, exit code 2
     cli.quiet_third_party(args.verbose)
-    return driver.train(args, programs)
+    error = cli.use_compile_cache(PROG, args.cache_dir)
+    return error if error is not None else driver.train(args, programs)
 
 
 if __name__ == "__main__":

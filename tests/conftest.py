@@ -1,10 +1,11 @@
 """Shared test set-up.
 
-JAX compile time dominates this suite on CI's 2 CPU cores.  A persistent compilation cache for
-the session lets identical programs built by different objects (e.g. train.py's first run and its
---resume) compile once; the worker processes of one pytest-xdist run share it.  It starts empty
-in every session (so CI times stay honest) unless VAGS_JAX_TEST_CACHE names a directory to keep
-between sessions.
+JAX compile time dominates this suite on CI's 2 CPU cores.  The product's compile cache
+(``vags_jax.compile_cache``) points at a directory of this session: identical programs built by
+different objects (e.g. train.py's first run and its --resume) compile once, and the worker
+processes of one pytest-xdist run and the train.py subprocesses they start share it.  It starts
+empty in every session (so CI times stay honest) unless VAGS_JAX_TEST_CACHE names a directory to
+keep between sessions.
 """
 import logging
 import os
@@ -13,12 +14,14 @@ import tempfile
 import jax
 import pytest
 
+from vags_jax import compile_cache
+
 _run_id = os.environ.get("PYTEST_XDIST_TESTRUNUID")  # the same in every worker of one run
 _cache = (os.environ.get("VAGS_JAX_TEST_CACHE")
           or (os.path.join(tempfile.gettempdir(), f"vags_jax_jit_{_run_id}") if _run_id
               else tempfile.mkdtemp(prefix="vags_jax_jit_")))
-jax.config.update("jax_compilation_cache_dir", _cache)
-jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
+os.environ[compile_cache.ENV] = _cache  # train.py / eval.py subprocesses of the suite use it too
+compile_cache.enable()
 
 
 class _CompileLog(logging.Handler):

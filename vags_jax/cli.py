@@ -16,6 +16,8 @@ from typing import Optional
 
 from absl import logging as absl_logging  # comes with orbax-checkpoint
 
+from vags_jax import compile_cache
+
 
 class ArgumentParser(argparse.ArgumentParser):
     """argparse, but an error is one line (no usage block): ``prog: error: ...``, exit code 2."""
@@ -107,3 +109,19 @@ def quiet_third_party(verbose: bool) -> None:
         warp.config.quiet = not verbose
     except ImportError:  # warp-lang is optional (impl "warp")
         pass
+
+
+def add_cache_dir(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--cache-dir", default=None, metavar="DIR",
+                   help="compiled programs (JAX's and Warp's) are cached here and reused by later runs "
+                        f"(default ${compile_cache.ENV}, else ~/.cache/vags_jax/compiled; 'off' turns it off)")
+
+
+def use_compile_cache(prog: str, flag: Optional[str]) -> Optional[int]:
+    """Turns on the compile cache (``compile_cache.enable``) -> None, or exit code 2 after one
+    line saying what to fix when the directory is unusable."""
+    try:
+        compile_cache.enable(flag)
+    except ValueError as e:
+        return fail(prog, e)
+    return None

@@ -63,7 +63,7 @@ def runs(tmp_path_factory, programs):
     alone, then the pipeline resumed to stage 3's 4 iterations."""
     root = tmp_path_factory.mktemp("runs")
     full, split = str(root / "full"), str(root / "split")
-    base = ["--config", "tiny", "--chunk", "2", "--quiet"]
+    base = ["--config", "tiny", "--chunk", "2", "--checkpoint-every", "1", "--quiet"]
     assert train.main(base + ["--out", full, "--set"] + _overrides(4), programs) == 0
     assert train.main(base + ["--stage", "gdnet", "--out", split, "--set"] + _overrides(2), programs) == 0
     resume = ["--out", split, "--chunk", "2", "--quiet"]
@@ -120,6 +120,41 @@ def test_pipeline_resumed_at_stage_boundaries_matches_uninterrupted_run(runs):
     with open(os.path.join(full, "timings.jsonl")) as f:
         assert [json.loads(l)["stage"] for l in f] == ["stage1", "stage2", "stage3"]  # no GG-CNN trained
     assert not os.path.exists(os.path.join(full, "ggcnn")) and pipeline.load_vags(full).ggcnn is None
+
+
+def _timings(run):
+    with open(os.path.join(run, "timings.jsonl")) as f:
+        return [json.loads(l) for l in f]
+
+
+def test_chunks_after_the_first_compile_nothing(runs):
+    """Stages 1 and 3 of the pipeline ran 2 chunks each (and the piecewise run resumed twice):
+    no chunk after a segment's first compiled or loaded a program (timings.jsonl counts them)."""
+    for run in runs:
+        rows = _timings(run)
+        assert rows and all(r["compile"]["recompiled_chunks"] == [] for r in rows), rows
+        assert all({"seconds", "compiled", "loaded"} <= r["compile"].keys() for r in rows)
+
+
+def test_a_resume_in_a_new_process_loads_its_programs(runs, tmp_path, capsys):
+    """Stage 3 resumed with programs built anew (as by a new train.py process): the compile
+    cache that the first run filled serves some of its programs, and no chunk after the first
+    compiles.  (Known gap, bench/RESULTS.md "Compile cache": on CPU the chunk and one other
+    program compile again, since JAX numbers the functions it outlines by what the process
+    traced before, so a program lowered after stages 1-2 and one lowered alone differ in text
+    and in cache key.)"""
+    from vags_jax.stages import driver
+
+    run = str(tmp_path / "resumed")
+    shutil.copytree(runs[0], run)
+    assert train.main(["--out", run, "--resume", "--chunk", "2", "--quiet", "--set", "stage3.iterations=6"],
+                      driver.Programs()) == 0
+    err = capsys.readouterr().err
+    assert "stage3's chunk of 2 iterations" in err
+    last = _timings(run)[-1]
+    assert (last["stage"], last["from"], last["to"]) == ("stage3", 4, 6)
+    assert last["compile"]["loaded"] > 0, last["compile"]
+    assert last["compile"]["recompiled_chunks"] == []
 
 
 def test_stage_hand_over(runs):
@@ -220,6 +255,13 @@ def test_eval_vags_sweep_csv_and_record(runs, tmp_path, capsys):
     with open(rounds_json[0]) as f:
         attempts = json.load(f)["attempts"]
     assert attempts and all(a["direct"] in (True, False) and a["success"] in (True, False) for a in attempts)
+    # A second evaluation (a new evaluator, as a new eval.py process builds) compiles nothing.
+    again = str(tmp_path / "again.json")
+    assert eval_cli.main(["--run", full, "--groups", "1,2", "--rounds", "2", "--out", again]) == 0
+    with open(again) as f:
+        second = json.load(f)
+    assert second["compile"]["compiled"] == 0 and second["compile"]["loaded"] > 0, second["compile"]
+    assert second["overall"] == report["overall"]
 
 
 def test_metrics_are_sane(runs):
@@ -337,16 +379,14 @@ def test_divergence_stops_and_keeps_the_last_good_checkpoint(runs, target, tmp_p
 
 
 def test_ctrl_c_stops_at_a_chunk_boundary_and_resume_matches(runs, target, tmp_path, programs):
-    """Ctrl-C sent to a stage-1 training (a subprocess, this session's compilation cache) once
+    """Ctrl-C sent to a stage-1 training (a subprocess, this session's compile cache: conftest) once
     its first metrics rows are written: the chunk in flight finishes and is checkpointed, one
     line says where it stopped, exit code 130, the segment is in timings.jsonl; --resume to 4
     iterations then equals the uninterrupted run's stage 1, checkpoint and metrics."""
     out = str(tmp_path / "interrupted")
-    env = dict(os.environ, JAX_COMPILATION_CACHE_DIR=jax.config.jax_compilation_cache_dir,
-               JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS="1")
     argv = [sys.executable, "train.py", "--config", "tiny", "--stage", "gdnet", "--chunk", "2", "--quiet",
             "--out", out, "--set"] + _overrides(40)  # far more than it can run before the signal lands
-    proc = subprocess.Popen(argv, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(argv, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     metrics_path = os.path.join(out, "metrics.jsonl")
     while proc.poll() is None and not (os.path.exists(metrics_path) and os.path.getsize(metrics_path)):
         time.sleep(0.02)

@@ -34,6 +34,7 @@ import numpy as np
 from flax import struct
 
 from vags_jax.benchmark.metrics import MotionTimeModel, RoundOutcomes, summarize
+from vags_jax.compile_cache import CompileClock
 from vags_jax.config import Config, benchmark_groups
 from vags_jax.env import EnvState, VagsEnv, where_worlds
 from vags_jax.env.push import step_with_pushes
@@ -253,7 +254,8 @@ def evaluate(cfg: Config, policy: Policy, groups: Optional[Sequence[int]] = None
     (list of ``summarize`` dicts with ``n_objects``, and ``wall_s`` when groups play one
     after the other), ``overall`` (pooled), ``outcomes`` ({k: RoundOutcomes.to_json()}),
     ``wall_s``, ``scenes`` (``scenes_digest`` of the scenes played; None with ``batch_groups``
-    off).  ``seed`` defaults to ``cfg.seed``.  ``batch_groups``: every group in one batch
+    off), ``compile`` (``CompileClock.as_dict()``: seconds compiling, programs compiled and
+    programs loaded from the compile cache; zero seconds when the evaluator had them).  ``seed`` defaults to ``cfg.seed``.  ``batch_groups``: every group in one batch
     (``Evaluator.run_groups``), else one batch per group (``run_group``).
     """
     groups = benchmark_groups(cfg) if groups is None else groups
@@ -264,6 +266,14 @@ def evaluate(cfg: Config, policy: Policy, groups: Optional[Sequence[int]] = None
     ev = evaluator if evaluator is not None else Evaluator(cfg)
     if ev.cfg != cfg:
         raise ValueError("evaluate: the evaluator was built for a different config")
+    with CompileClock() as clock:
+        report = _play(ev, policy, groups, rounds, seed, time_model, log, batch_groups)
+    report["compile"] = clock.as_dict()
+    return report
+
+
+def _play(ev: Evaluator, policy: Policy, groups, rounds: int, seed: int, time_model, log, batch_groups: bool) -> dict:
+    cfg = ev.cfg
     base = jax.random.PRNGKey(seed)
     per_group, parts, raw = [], [], {}
     t_all = time.time()

@@ -70,6 +70,7 @@ def _parser():
     p.add_argument("--step", type=cli.int_in(0), default=None, help="networks checkpoint step (default: latest)")
     p.add_argument("--set", nargs="*", default=[], metavar="SECTION.FIELD=VALUE",
                    help="config overrides, e.g. vags.local_planner=ggcnn vags.move_cost=0.1 (not net.* or workspace.*)")
+    cli.add_cache_dir(p)
     return p
 
 
@@ -85,6 +86,9 @@ def read_frame(rgb: str, depth: str, intrinsics: str, pose: str) -> Frame:
 
 def main_predict(argv) -> int:
     args = _parser().parse_args(argv)
+    error = cli.use_compile_cache(PROG, args.cache_dir)
+    if error is not None:
+        return error
 
     try:
         with warnings.catch_warnings():
@@ -140,6 +144,7 @@ def _sim_parser(command: str):
                        help="png: 16-bit millimetres, as a sensor gives (default); npy: float32 metres")
     else:
         p.add_argument("--grasp", required=True, metavar="DECISION.json", help="predict's output with a grasp")
+    cli.add_cache_dir(p)
     return p
 
 
@@ -172,6 +177,9 @@ def _read_grasp(path: str):
 
 def main_sim(command: str, argv) -> int:
     args = _sim_parser(command).parse_args(argv)
+    error = cli.use_compile_cache(f"{PROG} {command}", args.cache_dir)
+    if error is not None:
+        return error
 
     try:
         cfg, n = _sim_config(args)

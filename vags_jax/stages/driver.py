@@ -24,6 +24,7 @@ import jax
 import numpy as np
 
 from vags_jax import cli
+from vags_jax.compile_cache import CompileClock
 from vags_jax import config as C
 from vags_jax.env import VagsEnv
 from vags_jax.ggcnn import data as ggcnn_data
@@ -201,8 +202,14 @@ def main_vpg(args, programs: Programs, stop, board) -> int:
 def _vpg_locked(args, plan, programs: Programs, stop, board) -> int:
     """The rest of ``main_vpg`` while the run's lock is held: the stage run chunk by chunk
     (``run_chunks``: metrics, checkpoints, the deadline and stop requests as stage 1's)."""
+    with CompileClock() as clock:
+        return _vpg_segment(args, plan, programs, stop, board, clock)
+
+
+def _vpg_segment(args, plan, programs: Programs, stop, board, clock) -> int:
     cfg, done, out_dir = plan.cfg, plan.step, vpg_stage.vpg_dir(args.out)
     t0 = time.time()
+    recompiles: list = []
     deadline = None if args.max_minutes is None else t0 + 60 * args.max_minutes
     try:
         program = programs.vpg(cfg)
@@ -220,8 +227,8 @@ def _vpg_locked(args, plan, programs: Programs, stop, board) -> int:
     log(f"training VPG (push and grasp nets): {v.n_worlds} worlds of {v.min_objects}-{v.max_objects} objects, "
         f"{v.iterations} iterations, impl={cfg.sim.impl}, trunk={cfg.net.trunk}, devices={jax.devices()}")
     state, it, status, actions, recent = run_chunks("vpg", program, state, done, v.iterations, out_dir, args,
-                                                    deadline, stop=stop, board=board)
-    if end_of_segment(args, "vpg", done, it, t0, status):
+                                                    deadline, stop=stop, board=board, recompiles=recompiles)
+    if end_of_segment(args, "vpg", done, it, t0, status, {**clock.as_dict(), "recompiled_chunks": recompiles}):
         return 1
     if status == "interrupted":
         return stop.exit_code
@@ -296,21 +303,27 @@ def _write_rows(path: str, name: str, m: dict, first: int, t0: float) -> list:
 
 
 def run_chunks(name: str, stage, state, start_it: int, total: int, out_dir: str, args, deadline,
-               finite=FINITE_METRICS, loss_key: str = "loss", on_save=None, stop=None, board=None):
+               finite=FINITE_METRICS, loss_key: str = "loss", on_save=None, stop=None, board=None,
+               recompiles: Optional[list] = None):
     """Advances a stage's state chunk by chunk from ``start_it`` to ``total`` iterations,
     logging every iteration to ``out_dir``/metrics.jsonl (with ``"stage": name``), checkpointing
-    into ``out_dir`` and stopping at ``deadline`` (a time.time() value, or None) or at the first
+    into ``out_dir`` (every ``args.checkpoint_every`` chunks, or else at the first chunk boundary
+    ``args.checkpoint_minutes`` after the last save; always at the end and when stopping) and
+    stopping at ``deadline`` (a time.time() value, or None) or at the first
     chunk boundary after a stop request (``stop``: ``interrupts.StopRequests``).
     Returns (state, iteration reached, status, grasps, recent success): status is "done",
     "out_of_time", "interrupted" or an error message (the learning diverged; the last good state
     is saved).  ``on_save(it, state)`` runs after every checkpoint of a good state; ``board``
     (``progress.Board``) receives every metrics row.  The first chunk says when it compiles and
-    how long that took; the progress line's ETA counts the chunks' time without compiling."""
+    how long that took; the progress line's ETA counts the chunks' time without compiling.  A
+    later chunk that compiles anything (or loads it from the compile cache) is a recompilation:
+    a warning line, and its iteration appended to ``recompiles``."""
     metrics_path = os.path.join(out_dir, "metrics.jsonl")
     _trim_metrics(metrics_path, start_it)
     chunk = args.chunk or pipeline.default_chunk(total)
-    every = args.checkpoint_every or 1
-    t0 = time.time()
+    every = args.checkpoint_every  # None: by time (``checkpoint_minutes``)
+    save_s = 60 * (getattr(args, "checkpoint_minutes", None) or CHECKPOINT_MINUTES)
+    t0 = last_save = time.time()
     it, n_chunks, recent = start_it, 0, []
     run_s, run_its = 0.0, 0  # time and iterations of the chunks, compiling excluded (the ETA)
     saved_it = start_it if start_it > 0 else None
@@ -334,6 +347,8 @@ def run_chunks(name: str, stage, state, start_it: int, total: int, out_dir: str,
             return good, it, out_of_memory(name, e, saved_it, out_dir), grasps_done, None
         dt = time.time() - tc
         run_s, run_its = run_s + max(dt - clock.seconds, 0.0), run_its + n
+        if n_chunks > 0 and clock.backend:
+            _warn_recompiled(name, it + n, clock, recompiles, args.quiet)
         with guard():
             rows = _write_rows(metrics_path, name, m, it, t0)
             if board is not None:
@@ -361,10 +376,11 @@ def run_chunks(name: str, stage, state, start_it: int, total: int, out_dir: str,
                   end="", file=sys.stderr, flush=True)
         out_of_time = deadline is not None and time.time() > deadline
         stopping = stop is not None and stop.requested
-        if n_chunks % every == 0 or it >= total or out_of_time or stopping:
+        due = n_chunks % every == 0 if every else time.time() - last_save >= save_s
+        if due or it >= total or out_of_time or stopping:
             with guard():
                 checkpoint.save(out_dir, it, state)
-                saved_it = it
+                saved_it, last_save = it, time.time()
                 if stop is not None:
                     stop.at(name, saved_it)
                 if on_save is not None:
@@ -378,13 +394,30 @@ def run_chunks(name: str, stage, state, start_it: int, total: int, out_dir: str,
     return state, it, "done", grasps_done, float(np.mean(recent)) if recent else None
 
 
-def log_timing(out: str, name: str, start_it: int, it: int, wall_s: float, status: str) -> None:
-    """Appends one stage segment's wall-clock to ``out``/timings.jsonl."""
+def _warn_recompiled(name: str, it: int, clock, recompiles: Optional[list], quiet: bool) -> None:
+    if recompiles is not None:
+        recompiles.append(it)
+    if not quiet:
+        print(file=sys.stderr)
+    log(f"warning: {name}'s chunk up to iteration {it} compiled {clock.compiled} and loaded {clock.loaded} "
+        f"program(s) again ({progress.duration(clock.seconds)}); chunks after the first should reuse the first's")
+
+
+def log_timing(out: str, name: str, start_it: int, it: int, wall_s: float, status: str,
+               compiles: Optional[dict] = None) -> None:
+    """Appends one stage segment's wall-clock to ``out``/timings.jsonl; ``compiles``: what the
+    segment compiled (``CompileClock.as_dict()`` and ``recompiled_chunks``)."""
+    row = {"stage": name, "from": start_it, "to": it, "wall_s": round(wall_s, 1), "status": status,
+           "time": time.strftime("%Y-%m-%dT%H:%M:%S")}
+    if compiles is not None:
+        row["compile"] = compiles
     with open(os.path.join(out, "timings.jsonl"), "a") as f:
-        f.write(json.dumps({"stage": name, "from": start_it, "to": it, "wall_s": round(wall_s, 1),
-                            "status": status, "time": time.strftime("%Y-%m-%dT%H:%M:%S")}) + "\n")
+        f.write(json.dumps(row) + "\n")
 
 
+# Default spacing of checkpoints: a save of the whole state (replay included) costs about as much
+# as a stage-1 iteration on an H100 (bench/RESULTS.md, "Compile cache, a 500-round evaluation ...").
+CHECKPOINT_MINUTES = 5.0
 OUT_OF_MEMORY = "out of accelerator memory"  # how run_chunks' status starts when a chunk ran out of it
 
 
@@ -398,12 +431,13 @@ def out_of_memory(name: str, e: Exception, saved_it, out_dir: str) -> str:
             f"or use a device with more memory; {kept}")
 
 
-def end_of_segment(args, name: str, start_it: int, it: int, t0: float, status: str) -> bool:
+def end_of_segment(args, name: str, start_it: int, it: int, t0: float, status: str,
+                   compiles: Optional[dict] = None) -> bool:
     """Logs a stage segment's wall clock (timings.jsonl) and says how it ended; True when the
     learning diverged or ran out of memory (``status`` is then the message)."""
     ok = status in ("done", "out_of_time", "interrupted")
     failed = "out_of_memory" if status.startswith(OUT_OF_MEMORY) else "diverged"
-    log_timing(args.out, name, start_it, it, time.time() - t0, status if ok else failed)
+    log_timing(args.out, name, start_it, it, time.time() - t0, status if ok else failed, compiles)
     if not ok:
         print(f"{PROG}: error: {status}", file=sys.stderr)
     elif status == "out_of_time":
@@ -444,7 +478,14 @@ def run_stage(cfg, args, name: str, done: int, h: pipeline.Handover, deadline, p
     ``done`` (``arrays``: stage 1's, read and checked by ``requests``), trained to its
     iterations or to a stop request (``stop``) -> (summary dict, Handover after it), or (exit
     code, None).  A second Ctrl-C (KeyboardInterrupt) is logged in timings.jsonl and re-raised."""
+    with CompileClock() as clock:
+        return _run_stage(cfg, args, name, done, h, deadline, programs, arrays, stop, board, clock)
+
+
+def _run_stage(cfg, args, name, done, h, deadline, programs, arrays, stop, board, clock):
     t0 = time.time()
+    recompiles: list = []
+    compiles = lambda: {**clock.as_dict(), "recompiled_chunks": recompiles}  # noqa: E731
     out_dir = rundir.stage_dir(args.out, name)
     st = getattr(cfg, name)
     try:
@@ -475,11 +516,13 @@ def run_stage(cfg, args, name: str, done: int, h: pipeline.Handover, deadline, p
             f"devices={jax.devices()}")
     try:
         state, it, status, grasps, recent = run_chunks(name, fns.program, state, done, st.iterations, out_dir,
-                                                       args, deadline, finite, loss_key, on_save, stop, board)
+                                                       args, deadline, finite, loss_key, on_save, stop, board,
+                                                       recompiles)
     except KeyboardInterrupt:
-        log_timing(args.out, name, done, stop.saved if stop and stop.saved else done, time.time() - t0, "abandoned")
+        log_timing(args.out, name, done, stop.saved if stop and stop.saved else done, time.time() - t0, "abandoned",
+                   compiles())
         raise
-    if end_of_segment(args, name, done, it, t0, status):
+    if end_of_segment(args, name, done, it, t0, status, compiles()):
         return 1, None
     summary = {"stage": name, "iterations": it, "grasp_attempts": grasps, "recent_success_rate": recent}
     if name not in ("stage1", "nbv"):  # NBV's is +inf: it always moves

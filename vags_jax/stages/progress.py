@@ -1,7 +1,8 @@
 """What ``train.py`` tells a person while it runs and when it ends.
 
 * ``compile_step``: a line when a program's first call starts ("compiling ...") and one with how
-  long JAX spent compiling it (counted through ``jax.monitoring``'s compile events) and running.
+  long JAX spent compiling it (``compile_cache.CompileClock``) and running, or that it was
+  loaded from the compile cache.
 * ``eta``: the time left in a stage, from the seconds per iteration of its chunks after compiling.
 * ``closing_lines``: the human summary at the end (per stage: iterations, time, final success,
   where it was written) and the next commands to run.
@@ -17,30 +18,12 @@ import os
 import time
 from typing import Callable, Iterable, Optional
 
-import jax
+from vags_jax.compile_cache import CompileClock
 
-COMPILE_EVENTS = "/jax/core/compile/"  # tracing, lowering and XLA compiling of a jitted call
+
 TENSORBOARD_EXTRA = "pip install 'vags_jax[tensorboard]'"
 # Metrics-row keys that are labels or clocks, not curves.
 NOT_SCALARS = ("stage", "iteration", "step", "wall_s")
-
-
-class CompileClock:
-    """Seconds JAX spent compiling while this context was open (``seconds``)."""
-
-    def __init__(self):
-        self.seconds = 0.0
-
-    def _listen(self, event: str, duration: float, **_) -> None:
-        if event.startswith(COMPILE_EVENTS):
-            self.seconds += duration
-
-    def __enter__(self) -> "CompileClock":
-        jax.monitoring.register_event_duration_secs_listener(self._listen)
-        return self
-
-    def __exit__(self, *exc) -> None:
-        jax.monitoring.unregister_event_duration_listener(self._listen)
 
 
 @contextlib.contextmanager
@@ -54,8 +37,11 @@ def compile_step(label: str, log: Optional[Callable[[str], None]]):
         yield clock
     if log is not None:
         total = time.time() - t0
-        if clock.seconds >= 0.05:
-            log(f"compiled {label} in {duration(clock.seconds)} (then ran {duration(max(total - clock.seconds, 0.0))})")
+        ran = f"(then ran {duration(max(total - clock.seconds, 0.0))})"
+        if clock.seconds >= 0.05 and clock.loaded and not clock.compiled:
+            log(f"loaded {label} from the compile cache in {duration(clock.seconds)} {ran}")
+        elif clock.seconds >= 0.05:
+            log(f"compiled {label} in {duration(clock.seconds)} {ran}")
         else:
             log(f"{label}: already compiled in this process ({duration(total)})")
 

@@ -106,8 +106,9 @@ def prepare_ggcnn(args) -> SimpleNamespace:
     if args.resume:
         raise ValueError("--resume continues a stage-1 (gdnet) run; --stage ggcnn trains GG-CNN from "
                          "the start (its labelled views are cached): drop --resume")
-    given = [f for f, v in (("--checkpoint-every", args.checkpoint_every), ("--max-minutes", args.max_minutes))
-             if v is not None]
+    given = [f for f, v in (("--checkpoint-every", args.checkpoint_every),
+                            ("--checkpoint-minutes", getattr(args, "checkpoint_minutes", None)),
+                            ("--max-minutes", args.max_minutes)) if v is not None]
     if given:
         raise ValueError(f"{' and '.join(given)} apply to --stage gdnet only; drop them for --stage ggcnn")
     overrides = C.parse_overrides(args.set)

@@ -1,0 +1,63 @@
+"""``driver.run_chunks`` on a stand-in stage (tiny jitted programs, no physics): when it
+checkpoints (every N chunks, or by time), and that it names a chunk after the first that compiles."""
+from types import SimpleNamespace
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from flax import struct
+
+from vags_jax.stages import checkpoint, driver
+
+KEYS = ("attempts", "attempts_total", "success_rate", "epsilon", "explored") + driver.FINITE_METRICS
+
+
+@struct.dataclass
+class State:
+    x: jax.Array
+    attempts: jax.Array
+
+
+class Stage:
+    """``run(state, n)``: n iterations of +1; ``fresh=True`` builds a new program at every call."""
+
+    def __init__(self, fresh: bool = False):
+        self.fresh, self.calls = fresh, 0
+        self.step = jax.jit(lambda x: x + 1.0)
+
+    def run(self, state, n):
+        self.calls += 1
+        step = jax.jit(lambda x, c=float(self.calls): x + c) if self.fresh else self.step
+        done = state.attempts + n
+        m = {k: np.zeros(n, np.float32) for k in KEYS}
+        m["attempts"][:] = 1
+        m["attempts_total"][:] = np.arange(int(state.attempts) + 1, int(done) + 1)
+        return State(x=step(state.x), attempts=jnp.asarray(done, jnp.int32)), m
+
+
+def _run(tmp_path, stage, **flags):
+    tmp_path.mkdir()
+    out = str(tmp_path)
+    args = SimpleNamespace(chunk=2, quiet=True, out=out, max_minutes=None,
+                           **{"checkpoint_every": None, "checkpoint_minutes": None, **flags})
+    state = State(x=jnp.zeros(3), attempts=jnp.zeros((), jnp.int32))
+    recompiles = []
+    _, it, status, _, _ = driver.run_chunks("stage1", stage, state, 0, 8, out, args, None, recompiles=recompiles)
+    assert (it, status) == (8, "done")
+    return checkpoint.checkpoint_steps(out), recompiles
+
+
+def test_checkpoints_every_n_chunks_or_by_time(tmp_path):
+    assert _run(tmp_path / "every2", Stage(), checkpoint_every=2)[0] == [4, 8]
+    # Every chunk boundary is due; the run directory keeps the last three checkpoints.
+    assert _run(tmp_path / "always", Stage(), checkpoint_minutes=1e-9)[0] == [4, 6, 8]
+    # The default spacing (5 minutes) is far longer than this loop: the end alone is saved.
+    assert _run(tmp_path / "default", Stage())[0] == [8]
+
+
+def test_a_chunk_that_compiles_after_the_first_is_named(tmp_path, capsys):
+    _, recompiles = _run(tmp_path / "stable", Stage())
+    assert recompiles == []
+    _, recompiles = _run(tmp_path / "fresh", Stage(fresh=True))
+    assert recompiles == [4, 6, 8]  # the chunks ending there built and compiled a new program
+    assert "warning: stage1's chunk up to iteration 4 compiled" in capsys.readouterr().err
