@@ -1,0 +1,220 @@
+#!/usr/bin/env python3
+"""Stage-1 training throughput: grasp attempts/s while training (collect + learn), where one
+iteration's time goes, and the DQN update's model FLOP utilisation in bf16.
+
+    python bench/train_throughput.py --config gpu --out runs/throughput.json
+    python bench/train_throughput.py --config gpu --set stage1.n_worlds=1024 stage1.updates_per_iteration=32
+    python bench/train_throughput.py --config tiny --iterations 4 --trunks small     # CPU smoke run
+
+1. Whole iterations: ``Stage1.run`` (one jitted scan, as train.py runs it) on a replay already
+   holding ``learning_starts`` transitions; attempts/s = grasp attempts / wall clock.
+2. Phases of one iteration, each jitted alone on the same arrays and timed on its own:
+   GDNet's forward pass over every rotation + DAES's choice; the grasp physics (no render);
+   rendering + heightmaps of every world; adding to replay; replay sampling (x updates per
+   iteration); the DQN updates on a fixed batch (x updates per iteration).  "rest of the
+   iteration" is the whole iteration minus their sum (what fusion hides shows up negative).
+   "host work per iteration" is a chunk's metrics copy to the host plus a checkpoint save,
+   spread over the default chunk's iterations (train.py does this between chunks).
+3. Update MFU: XLA's FLOP count of one DQN update (``cost_analysis``) x updates/s, against the
+   peak of a large bf16 matrix multiply measured in this script on this device, for each trunk
+   of ``--trunks`` (DenseNet-121 at the config's heightmap size and rotations).
+Writes every figure to --out as JSON.  Timings mean something on a GPU only (bench/RESULTS.md).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import tempfile
+import time
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+from vags_jax import compile_cache  # noqa: E402
+from vags_jax import config as C  # noqa: E402
+from vags_jax.nets import initial_variables, make_qnet  # noqa: E402
+from vags_jax.rl import dqn, exploration, replay  # noqa: E402
+from vags_jax.stages import checkpoint, pipeline  # noqa: E402
+from vags_jax.stages.stage1 import Stage1  # noqa: E402
+
+
+def timed(fn, *args, reps: int = 5) -> float:
+    """Mean seconds of ``fn(*args)`` over ``reps`` calls after one warm-up (compile) call."""
+    jax.block_until_ready(fn(*args))
+    t = time.perf_counter()
+    for _ in range(reps):
+        out = fn(*args)
+    jax.block_until_ready(out)
+    return (time.perf_counter() - t) / reps
+
+
+def matmul_peak(n: int) -> float:
+    """FLOP/s of an (n, n) x (n, n) bf16 matrix multiply (f32 accumulation)."""
+    a = jax.random.normal(jax.random.PRNGKey(0), (n, n), jnp.bfloat16)
+    b = jax.random.normal(jax.random.PRNGKey(1), (n, n), jnp.bfloat16)
+    f = jax.jit(lambda x, y: jnp.matmul(x, y, preferred_element_type=jnp.float32))
+    return 2 * n ** 3 / timed(f, a, b, reps=20)
+
+
+def flops_of(jitted, *args) -> float:
+    cost = jitted.lower(*args).compile().cost_analysis()
+    cost = cost[0] if isinstance(cost, (list, tuple)) else cost
+    return float(cost.get("flops", float("nan")))
+
+
+def random_batch(cfg, key, b: int):
+    """A replay sample of ``b`` random transitions of this config's heightmap size."""
+    H = cfg.workspace.heightmap_px
+    k = jax.random.split(key, 4)
+    color = jax.random.randint(k[0], (b, H, H, 3), 0, 256).astype(jnp.uint8)
+    height = jax.random.uniform(k[1], (b, H, H), maxval=0.1)
+    action = jnp.stack([jax.random.randint(k[2], (b,), 0, cfg.net.n_rotations),
+                        jax.random.randint(k[3], (b,), 0, H), jax.random.randint(k[3], (b,), 0, H)], 1)
+    t = replay.make_grasp_transition(color, height, action, jnp.ones((b,)), color, height, jnp.zeros((b,), bool))
+    buffer = replay.add(replay.init(b, jax.tree.map(lambda x: x[0], t)), t)
+    _, batch, w = replay.sample(buffer, key, cfg.dqn.batch_size, cfg.replay.alpha, cfg.replay.beta)
+    return batch, w
+
+
+def update_mfu(cfg, peak: float, n_updates: int) -> dict:
+    """One DQN update of GDNet (this config's trunk): FLOPs, updates/s and MFU against ``peak``."""
+    net = make_qnet(cfg.net, "gdnet")
+    H = cfg.workspace.heightmap_px
+    apply = lambda v, c, h, train, mutable=False, rotations=None: net.apply(  # noqa: E731
+        v, c, h, train, rotations=rotations, mutable=mutable)
+    learner = dqn.create_train_state(initial_variables(jax.random.PRNGKey(0), net, cfg.net, H, H), cfg.dqn)
+    update = dqn.make_update_step(apply, cfg.dqn, executed_rotation_only=True)
+    batch, w = random_batch(cfg, jax.random.PRNGKey(1), max(cfg.dqn.batch_size, 8))
+    one = jax.jit(lambda ts: update(ts, batch, w)[0])
+    many = jax.jit(lambda ts: jax.lax.scan(lambda s, _: (update(s, batch, w)[0], None), ts, None,
+                                           length=n_updates)[0])
+    flops = flops_of(one, learner)
+    dt = timed(many, learner, reps=3) / n_updates
+    return {"trunk": cfg.net.trunk, "dtype": cfg.net.dtype, "batch_size": cfg.dqn.batch_size,
+            "heightmap_px": H, "rotations": cfg.net.n_rotations, "update_flops": flops,
+            "update_s": dt, "updates_per_s": 1 / dt, "achieved_flops_per_s": flops / dt, "mfu": flops / dt / peak}
+
+
+def phases(st: Stage1, state, reps: int) -> dict:
+    """Seconds of each phase of one stage-1 iteration, each jitted alone (module docstring)."""
+    cfg, env = st.cfg, st.env
+    s1 = cfg.stage1
+    s = state.env
+    variables = {"params": state.learner.params, "batch_stats": state.learner.batch_stats}
+    key = jax.random.PRNGKey(7)
+    eps = exploration.epsilon(state.iteration, cfg.exploration)
+
+    def forward(v, s):
+        q = st._apply(v, s.color, s.height, False)
+        return exploration.select_grasp(key, q, s.height, eps, cfg.exploration)[0]
+
+    action = jax.jit(forward)(variables, s)
+    none = jnp.zeros((s.n_worlds,), bool)
+    n_obj = jnp.full((s.n_worlds,), s1.min_objects, jnp.int32)
+    physics = jax.jit(lambda s, a: env.step_grasp_or_reset(s, a[:, 1:], a[:, 0], none, key, n_obj, observe=False)[0])
+    s2 = physics(s, action)
+    render = jax.jit(lambda s2: env.with_observation(s2, key if cfg.camera.noise.enabled else None))
+    trans = replay.make_grasp_transition(s.color, s.height, action, jnp.zeros((s.n_worlds,)), s.color, s.height,
+                                         none)
+    add = jax.jit(lambda b, t: replay.add(b, t, mask=~none))
+    keys = jax.random.split(key, s1.updates_per_iteration)
+    sample = jax.jit(lambda b: jax.lax.scan(
+        lambda c, k: (c, replay.sample(b, k, cfg.dqn.batch_size, cfg.replay.alpha, cfg.replay.beta)[2].sum()),
+        0, keys)[1])
+    _, batch, w = replay.sample(state.replay, key, cfg.dqn.batch_size, cfg.replay.alpha, cfg.replay.beta)
+    updates = jax.jit(lambda ts: jax.lax.scan(lambda c, _: (st.update(c, batch, w)[0], None), ts, None,
+                                              length=s1.updates_per_iteration)[0])
+    return {
+        "forward_and_choice_s": timed(jax.jit(forward), variables, s, reps=reps),
+        "physics_s": timed(physics, s, action, reps=reps),
+        "render_heightmaps_s": timed(render, s2, reps=reps),
+        "replay_add_s": timed(add, state.replay, trans, reps=reps),
+        "replay_sample_s": timed(sample, state.replay, reps=reps),
+        "updates_s": timed(updates, state.learner, reps=reps),
+    }
+
+
+def host_work(st: Stage1, state, metrics, chunk: int) -> float:
+    """A chunk's host work (metrics to the host, one checkpoint) spread over its iterations."""
+    with tempfile.TemporaryDirectory() as d:
+        t = time.perf_counter()
+        jax.device_get(metrics)
+        checkpoint.save(d, 1, state)
+        return (time.perf_counter() - t) / chunk
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--config", default="gpu")
+    p.add_argument("--set", nargs="*", default=[], metavar="SECTION.FIELD=VALUE")
+    p.add_argument("--iterations", type=int, default=8, help="iterations per timed chunk (default 8)")
+    p.add_argument("--reps", type=int, default=5, help="calls per phase timing (default 5)")
+    p.add_argument("--trunks", default="small,densenet121", help="trunks for the update MFU (comma-separated)")
+    p.add_argument("--matmul", type=int, default=None, help="side of the peak matmul (default 8192 GPU, 1024 CPU)")
+    p.add_argument("--cache-dir", default=None, help="compile cache (as train.py's); 'off' to measure cold")
+    p.add_argument("--out", default=None, help="JSON file for every figure")
+    args = p.parse_args(argv)
+    compile_cache.enable(args.cache_dir)
+    cfg = C.replace(C.preset(args.config), **C.parse_overrides(args.set))
+    s1 = cfg.stage1
+    on_gpu = jax.devices()[0].platform == "gpu"
+    print(f"device: {jax.devices()[0].device_kind}; config {args.config} {' '.join(args.set)}; "
+          f"{s1.n_worlds} worlds, {s1.updates_per_iteration} updates of batch {cfg.dqn.batch_size} per iteration",
+          flush=True)
+
+    st = Stage1(cfg)
+    state = st.init(jax.random.PRNGKey(cfg.seed))
+    n = max(args.iterations, -(-s1.learning_starts // s1.n_worlds) + 1)  # the first chunk fills replay
+    t = time.perf_counter()
+    state, _ = st.run(state, n)
+    jax.block_until_ready(state)
+    first_s = time.perf_counter() - t
+    a0 = int(state.attempts)
+    t = time.perf_counter()
+    state, metrics = st.run(state, n)
+    jax.block_until_ready(state)
+    wall = time.perf_counter() - t
+    attempts = int(state.attempts) - a0
+    updates = float(np.sum(metrics["updates"]))
+    it_s = wall / n
+    print(f"stage 1: {attempts / wall:,.0f} grasp attempts/s ({attempts} attempts, {updates:.0f} updates in "
+          f"{wall:.2f} s; {it_s * 1e3:.1f} ms per iteration; first chunk with compiling {first_s:.1f} s)", flush=True)
+
+    ph = phases(st, state, args.reps)
+    ph["rest_of_iteration_s"] = it_s - sum(ph.values())
+    ph["host_work_per_iteration_s"] = host_work(st, state, metrics, pipeline.default_chunk(s1.iterations))
+    for k, v in ph.items():
+        print(f"  {k[:-2].replace('_', ' '):28s} {v * 1e3:8.2f} ms  {100 * v / it_s:5.1f} %", flush=True)
+
+    peak = matmul_peak(args.matmul or (8192 if on_gpu else 1024))
+    print(f"bf16 matmul peak measured: {peak / 1e12:.1f} TFLOP/s", flush=True)
+    mfu = []
+    for trunk in [t for t in args.trunks.split(",") if t]:
+        tcfg = C.replace(cfg, **{"net.trunk": trunk, "net.dtype": "bfloat16"})
+        r = update_mfu(tcfg, peak, s1.updates_per_iteration)
+        mfu.append(r)
+        print(f"update MFU, {trunk}: {r['update_flops'] / 1e9:.2f} GFLOP per update, {r['updates_per_s']:.1f} "
+              f"updates/s, {r['achieved_flops_per_s'] / 1e12:.2f} TFLOP/s = {100 * r['mfu']:.1f} % of the peak",
+              flush=True)
+
+    result = {"device": jax.devices()[0].device_kind, "config": args.config, "overrides": args.set,
+              "n_worlds": s1.n_worlds, "updates_per_iteration": s1.updates_per_iteration,
+              "batch_size": cfg.dqn.batch_size, "iterations_timed": n, "wall_s": wall,
+              "attempts": attempts, "attempts_per_s": attempts / wall, "iteration_s": it_s,
+              "first_chunk_s": first_s, "phases": ph, "matmul_peak_flops_per_s": peak, "update_mfu": mfu,
+              "date": time.strftime("%Y-%m-%d")}
+    if args.out:
+        os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
+        with open(args.out, "w") as f:
+            json.dump(result, f, indent=2)
+        print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
