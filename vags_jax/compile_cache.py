@@ -38,7 +38,8 @@ def enable(flag: Optional[str] = None) -> Optional[str]:
     directory (see the module docstring); returns the JAX cache directory in use, or None.
 
     Must run before the first compile of the process: JAX reads the setting once.  Every
-    program is cached whatever its compile time, so a warm start compiles nothing.
+    program is cached whatever its compile time, so a process that builds its programs as an
+    earlier one did loads them all (a resume can still miss: bench/RESULTS.md, "Compile cache").
     """
     path = resolve(flag)
     caller_dir = jax.config.jax_compilation_cache_dir

@@ -255,7 +255,8 @@ def evaluate(cfg: Config, policy: Policy, groups: Optional[Sequence[int]] = None
     after the other), ``overall`` (pooled), ``outcomes`` ({k: RoundOutcomes.to_json()}),
     ``wall_s``, ``scenes`` (``scenes_digest`` of the scenes played; None with ``batch_groups``
     off), ``compile`` (``CompileClock.as_dict()``: seconds compiling, programs compiled and
-    programs loaded from the compile cache; zero seconds when the evaluator had them).  ``seed`` defaults to ``cfg.seed``.  ``batch_groups``: every group in one batch
+    programs loaded from the compile cache; zero seconds when the evaluator had them).
+    ``seed`` defaults to ``cfg.seed``.  ``batch_groups``: every group in one batch
     (``Evaluator.run_groups``), else one batch per group (``run_group``).
     """
     groups = benchmark_groups(cfg) if groups is None else groups
