@@ -17,12 +17,17 @@ each state the physics is branched (the simulator is pure: each branch starts fr
 * ``view_ggcnn``: the same move, GG-CNN grasps in the close image (the paper's planner; only
   with a GG-CNN in the run);
 * ``random_gdnet``: as ``view_gdnet`` but the viewpoint is a uniformly random object cell
-  (is VANet's choice better than chance?).
+  (is VANet's choice better than chance?);
+* ``grasp_gdnet``: as ``view_gdnet`` but the viewpoint is above GDNet's own argmax cell on the
+  global view (a close look at the grasp it would make);
+* ``relook_direct``: no move: a second global capture (fresh sensor noise) and GDNet's argmax on
+  it (does a move pay more than a second look from the same pose?).
 
 Reported per subset of states (all; where each gate -- ``success`` with either
 ``vags.view_estimate``, and ``q`` -- would grasp directly / move the camera): the success rate of each branch, and the AUROC with which each
 gate score (the success net's p_direct, GDNet's largest Q) ranks the direct grasp's success,
-and VANet's p_view the success after its move.  Prints a Markdown table; ``--out`` JSON.
+and VANet's p_view the success after its move.  Prints a Markdown table; ``--out`` JSON;
+``--rows`` the per-state values (.npz, one array per branch and score) for analysis.
 """
 from __future__ import annotations
 
@@ -35,7 +40,7 @@ import time
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-BRANCHES = ("direct", "oracle", "view_gdnet", "view_ggcnn", "random_gdnet")
+BRANCHES = ("direct", "oracle", "view_gdnet", "view_ggcnn", "random_gdnet", "grasp_gdnet", "relook_direct")
 
 
 def auroc(score, label):
@@ -77,7 +82,7 @@ def make_step(cfg, env, has_ggcnn: bool, has_mean: bool):
     noisy = cfg.camera.noise.enabled
 
     def step(params, key, state):
-        k_gd, k_gg, k_rand, k_rv, k_obs = jax.random.split(key, 5)
+        k_gd, k_gg, k_rand, k_rv, k_obs, k_gv, k_re = jax.random.split(key, 7)
         gdnet_q = nets.gdnet_q(params["gdnet"])
         q_grasp = gdnet_q(state.color, state.height)
         q_view = nets.q_fn(nets.vanet, params["vanet"])(state.color, state.height)
@@ -100,6 +105,11 @@ def make_step(cfg, env, has_ggcnn: bool, has_mean: bool):
             jax.random.split(k_rand, state.n_worlds), state.height)
         rand_view = jnp.stack(jnp.unravel_index(cell, state.height.shape[1:]), -1).astype(jnp.int32)
         attempts["random_gdnet"], _ = close_view_grasp(cfg_gd, env, state, rand_view, k_rv, gdnet_q)
+        attempts["grasp_gdnet"], _ = close_view_grasp(cfg_gd, env, state, d_q.grasp[:, 1:], k_gv, gdnet_q)
+        again = env.with_observation(state, k_re)
+        a_re, _ = greedy(gdnet_q(again.color, again.height))
+        pos, yaw = env.grasp_pose(again, a_re[:, 1:], a_re[:, 0])
+        attempts["relook_direct"] = env.direct_attempt(pos, yaw)
         out = {name: env.step_attempt(state, a, observe=False)[1].success for name, a in attempts.items()}
         out.update(q_max=d_q.q_max, p_direct=value_at(q_success, d_q.grasp),
                    p_view=jnp.max(q_view.reshape(q_view.shape[0], -1), axis=1),
@@ -162,6 +172,7 @@ def main(argv=None) -> int:
                    help="a scene variant of eval.py --scenes (default: the run's scenes)")
     p.add_argument("--set", nargs="*", default=[], metavar="SECTION.FIELD=VALUE")
     p.add_argument("--out", default=None)
+    p.add_argument("--rows", default=None, help="write the per-state values to this .npz")
     args = p.parse_args(argv)
 
     import jax
@@ -200,6 +211,9 @@ def main(argv=None) -> int:
             rows.setdefault(name, []).append(np.asarray(v))
         print(f"step {t + 1}/{args.steps}: {time.time() - t0:.0f} s", file=sys.stderr, flush=True)
     rows = {k: np.concatenate(v) for k, v in rows.items()}
+    if args.rows:
+        os.makedirs(os.path.dirname(os.path.abspath(args.rows)), exist_ok=True)
+        np.savez_compressed(args.rows, **rows)
     summary = summarize(rows, nets.ggcnn is not None, has_mean)
     print(table(summary, nets.ggcnn is not None))
     if args.out:

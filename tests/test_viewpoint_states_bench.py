@@ -17,3 +17,36 @@ def test_auroc_hand_cases():
     # A tie between a positive and a negative counts half: (1 + 0.5) / 2.
     assert auroc([0.7, 0.3, 0.3], [1, 1, 0]) == pytest.approx(0.75)
     assert auroc([0.1, 0.2], [1, 1]) is None
+
+
+def test_viewpoint_rows_ranks_moves_by_calibrated_p_direct(tmp_path):
+    """bench/viewpoint_rows.py on 4 hand-made states: the lowest calibrated p_direct moves first,
+    dead states are dropped, and paired counts are the states where only one branch succeeds."""
+    import json
+
+    import numpy as np
+    from viewpoint_rows import load, paired_table, ranked_moves_table
+
+    rows = {"live": np.array([1, 1, 1, 1, 0], bool),
+            "p_direct": np.array([0.9, 0.2, 0.6, 0.4, 0.0], np.float32),
+            "direct": np.array([1, 0, 1, 0, 1], bool),
+            "view_gdnet": np.array([0, 1, 1, 0, 0], bool),
+            "grasp_gdnet": np.array([1, 1, 1, 1, 0], bool),
+            "relook_direct": np.array([1, 0, 1, 1, 0], bool),
+            "random_gdnet": np.array([0, 0, 0, 0, 0], bool)}
+    np.savez(tmp_path / "s.npz", **rows)
+    (tmp_path / "s.json").write_text(json.dumps({"calibration": [0.1, 0.0, 0.7]}))
+    loaded, cal = load(str(tmp_path / "s.npz"))
+    assert loaded["direct"].shape == (4,) and cal == [0.1, 0.0, 0.7]
+    table = paired_table(loaded)
+    # view vs direct: 50 % each; only view succeeds on state 1, only direct on state 0.
+    assert "| view_gdnet | direct | 50.0 | 50.0 | +0.0 | 1 | 1 |" in table
+    assert "| grasp_gdnet | direct | 100.0 | 50.0 | +50.0 | 2 | 0 |" in table
+    moves = ranked_moves_table(loaded, cal).splitlines()
+    # Nothing moves at share 0: every branch column is the direct success, 50 %.
+    assert moves[2].startswith("| 0.00 | - | 50.0 | 50.0 | 50.0 |")
+    # Calibrated p_direct is [0.8, 0.1, 0.5, 0.3]: at the quantiles 0.05-0.3 only state 1 (0.1)
+    # moves (share 0.25); VANet's view and the grasp cell succeed there, a second look does not,
+    # so 3 of 4 succeed and the move adds 1.0.
+    row = [r for r in moves if r.startswith("| 0.25 |")]
+    assert row and "| 75.0 | 75.0 | 50.0 | +1.000 |" in row[0]

@@ -63,3 +63,10 @@ def test_view_estimate_is_checked():
     assert C.replace(C.Config(), **{"vags.view_estimate": "vanet"}).vags.view_estimate == "vanet"
     with pytest.raises(ValueError, match=r"vags\.view_estimate must be one of \('mean', 'vanet'\), got 'max'"):
         C.replace(C.Config(), **{"vags.view_estimate": "max"})
+
+
+def test_viewpoint_is_checked():
+    assert C.Config().vags.viewpoint == "vanet"
+    assert C.replace(C.Config(), **{"vags.viewpoint": "grasp"}).vags.viewpoint == "grasp"
+    with pytest.raises(ValueError, match=r"vags\.viewpoint must be one of \('vanet', 'grasp'\), got 'random'"):
+        C.replace(C.Config(), **{"vags.viewpoint": "random"})

@@ -194,6 +194,10 @@ def test_decision_picks_each_branch_on_hand_set_q_maps():
     assert np.asarray(decide(jnp.asarray(qg), jnp.asarray(qv), -np.inf).direct).all()
     with pytest.raises(ValueError, match=r"VANet Q must be \(B, H, W\)"):
         decide(jnp.asarray(qg), jnp.asarray(qv[:, :-1]), 1.0)
+    # viewpoint "grasp": the camera looks at GDNet's own argmax cell, not VANet's; the gate is unchanged.
+    g = decide(jnp.asarray(qg), jnp.asarray(qv), 1.78, viewpoint="grasp")
+    assert np.asarray(g.direct).tolist() == [True, False, False]
+    assert np.asarray(g.view).tolist() == [[4, 1], [0, 3], [1, 1]]
 
 
 @pytest.mark.parametrize("planner", ["ggcnn", "gdnet"])

@@ -644,6 +644,7 @@ VAGS_LOCAL_PLANNERS = ("gdnet", "ggcnn")
 VAGS_GATES = ("success", "q")
 VAGS_VIEW_REWARDS = ("success", "eq5")
 VAGS_VIEW_ESTIMATES = ("mean", "vanet")
+VAGS_VIEWPOINTS = ("vanet", "grasp")
 
 
 @dataclass(frozen=True)
@@ -669,6 +670,9 @@ class Vags:
       running mean of that success over stages 2-3's greedy moves, one number for every state
       (VANet's largest value did not rank that success: bench/RESULTS.md, "Viewpoints that
       pay"); "vanet": VANet's largest Q on the state, less its running bias.
+    viewpoint: where the camera moves.  "vanet": above VANet's argmax cell (the paper); "grasp":
+      above GDNet's argmax cell on the global view, a close look at the grasp it would make
+      (VANet then only learns from those moves).
     calibration_decay: per-iteration decay of the running means of the "success" gate: the bias
       of each estimate (estimate - outcome over stages 2-3's greedy attempts, subtracted before
       comparing; VANet's largest value over the map is biased upwards) and the success after a
@@ -689,6 +693,7 @@ class Vags:
     threshold_quantile: float = 0.5
     move_cost: float = 0.05
     view_estimate: str = "mean"
+    viewpoint: str = "vanet"
     calibration_decay: float = 0.9
     view_reward: str = "success"
     vanet_gamma: float = 0.0
@@ -702,6 +707,8 @@ class Vags:
         _check(self.gate in VAGS_GATES, f"Vags.gate must be one of {VAGS_GATES}, got {self.gate!r}")
         _check(self.view_estimate in VAGS_VIEW_ESTIMATES,
                f"Vags.view_estimate must be one of {VAGS_VIEW_ESTIMATES}, got {self.view_estimate!r}")
+        _check(self.viewpoint in VAGS_VIEWPOINTS,
+               f"Vags.viewpoint must be one of {VAGS_VIEWPOINTS}, got {self.viewpoint!r}")
         _check(self.view_reward in VAGS_VIEW_REWARDS,
                f"Vags.view_reward must be one of {VAGS_VIEW_REWARDS}, got {self.view_reward!r}")
         if self.threshold is not None:

@@ -14,7 +14,7 @@ state and the world grasps directly where the score exceeds the threshold:
   move is expected to add more than ``move_cost`` of success.
 
 A direct grasp is GDNet's argmax (1 motion).  Otherwise the camera moves to the viewpoint
-above VANet's argmax cell (``camera.viewpoint_pose``), takes the raw depth image there, and
+above VANet's argmax cell (or GDNet's: ``vags.viewpoint``; ``camera.viewpoint_pose``), takes the raw depth image there, and
 grasps with the close-view planner (``vags.local_planner``): ``"gdnet"``, GDNet's argmax on the
 global maps fused with the close view (``view_fusion``) among the cells the close view saw;
 ``"ggcnn"``, GG-CNN's best grasp in the close image.  2 motions.  A threshold of ``-inf``
@@ -142,13 +142,17 @@ def _check_maps(q_grasp, q_view) -> None:
 
 
 def decide(q_grasp: jax.Array, q_view: jax.Array, threshold, q_success: Optional[jax.Array] = None,
-           gate: str = "q", calibration: Optional[jax.Array] = None, view_estimate: str = "vanet") -> Decision:
+           gate: str = "q", calibration: Optional[jax.Array] = None, view_estimate: str = "vanet",
+           viewpoint: str = "vanet") -> Decision:
     """The decision on Q maps: q_grasp (B, R, H, W), q_view (B, H, W), threshold scalar (or
     (B,)), q_success (B, R, H, W), calibration (3,) and view_estimate for the "success" gate
-    (``gate_score``); grasp directly where the gate's score exceeds ``threshold``."""
+    (``gate_score``); grasp directly where the gate's score exceeds ``threshold``.  The view is
+    VANet's argmax cell, or GDNet's with ``viewpoint="grasp"`` (``config.Vags.viewpoint``)."""
     _check_maps(q_grasp, q_view)
     grasp, q_max = greedy(q_grasp)
     view, v_max = greedy(q_view)
+    if viewpoint == "grasp":
+        view = grasp[:, 1:]
     p_direct = None if q_success is None else value_at(q_success, grasp)
     score = gate_score(gate, q_max, p_direct, v_max, calibration, view_estimate)
     return Decision(direct=score > threshold, grasp=grasp, view=view, q_max=q_max, score=score)
@@ -242,7 +246,7 @@ class VagsNets:
         """-> (Decision, GDNet's Q (B, R, H, W), VANet's Q (B, H, W)) on the global views."""
         q_grasp, q_view, q_success = self.q_maps(params, state.color, state.height)
         decision = decide(q_grasp, q_view, params["threshold"], q_success, self.cfg.vags.gate,
-                          params.get("calibration"), self.cfg.vags.view_estimate)
+                          params.get("calibration"), self.cfg.vags.view_estimate, self.cfg.vags.viewpoint)
         return decision, q_grasp, q_view
 
     def plan(self, params: dict, key, env: VagsEnv, state: EnvState):

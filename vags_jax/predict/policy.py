@@ -269,7 +269,7 @@ def _global_program(params, depth, rgb, pose, *, cfg, cam, gdnet_only):
     else:
         q_grasp, q_view, q_success = nets.q_maps(params, color, height)
         d = decision.decide(q_grasp, q_view, params["threshold"], q_success, cfg.vags.gate, params.get("calibration"),
-                            cfg.vags.view_estimate)
+                            cfg.vags.view_estimate, cfg.vags.viewpoint)
         _, p_view = decision.greedy(q_view)
         out.update(grasp=d.grasp, q_max=d.q_max, score=d.score, direct=d.direct, view=d.view, p_view=p_view,
                    view_pose=camera.viewpoint_pose(d.view, height, cfg.workspace, cfg.camera))

@@ -278,6 +278,8 @@ class VagsStage:
                 k_gx, state.gd_grasp, cfg.net.n_rotations, s.height, eps, cfg.exploration)
         else:
             grasp, g_explored = state.gd_grasp, jnp.zeros((B,), bool)
+        if cfg.vags.viewpoint == "grasp":  # look at the grasp GDNet would make
+            view, v_explored = grasp[:, 1:], g_explored
         decision, p_direct, p_view = self._decision(state, q_view, grasp, view)
         direct = decision.direct
         attempt, close = plan_attempt(cfg, env, s, decision, k_img, self._gdnet_q(state.gdnet), state.ggcnn,
