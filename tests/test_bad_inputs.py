@@ -297,6 +297,8 @@ TRAIN_FLAG_CASES = [
     (["--tensorboard", ""], r"--tensorboard must not be empty"),
     (["--set", "camera.renderer=warp"], r"camera\.renderer=warp needs (an NVIDIA GPU, but JAX runs on cpu|warp-lang)"),
     (["--stage", "ggcnn", "--set", "camera.renderer=warp"], r"camera\.renderer=warp needs"),
+    (["--set", "vags.gate=rate"], r"vags\.gate=rate is measured on a trained run, not trained with: .*gate_measure"),
+    (["--stage", "gdnet", "--set", "vags.gate=rate"], r"vags\.gate=rate is measured on a trained run"),
 ]
 
 
@@ -1278,3 +1280,32 @@ def test_predict_exit_code_2_one_line(frame_files, vags_run, tmp_path):
                        timeout=120, env={**os.environ, "PYTHONPATH": ROOT + os.pathsep + os.environ.get("PYTHONPATH", "")})
     assert p.returncode == 2, p.stderr
     assert re.search(r"^predict: error: depth image .*none\.png: no such file", _one_line(p.stderr))
+
+
+def test_the_rate_gate_without_a_table_for_the_runs_networks_says_how_to_measure_one(tmp_path, capsys, vags_run,
+                                                                                     frame_files):
+    from types import SimpleNamespace
+
+    from vags_jax.policies import rate_gate
+    from vags_jax.policies.catalog import vags_params
+    from vags_jax.stages import gate_measure
+
+    run = str(tmp_path / "run")
+    shutil.copytree(vags_run, run)
+    code, line = _cli(eval_cli.main, ["--run", run, "--policy", "vags", "--set", "vags.gate=rate"], capsys)
+    assert code == 2 and f"{run} has no gate.json: measure it with python -m vags_jax.stages.gate_measure" in line, line
+    code, line = _cli(_predict_main, _predict_argv(run, frame_files, {"--set": ["vags.gate=rate"]}), capsys)
+    assert code == 2 and "needs a gate table measured on the run's networks (stage3 step 2)" in line, line
+    # A table measured on networks the run no longer has is not used (rundir.load_vags reads None).
+    rate_gate.save(run, rate_gate.GateTable((0.5,), (1, 1), (0.5, 0.9), (0.8, 0.8), (1.0, 1.0), 0.1, (0.2, -0.2)),
+                   {"networks": "stage3 step 1"})
+    code, line = _cli(_predict_main, _predict_argv(run, frame_files, {"--set": ["vags.gate=rate"]}), capsys)
+    assert code == 2 and "gate table measured on the run's networks (stage3 step 2)" in line, line
+    stale = SimpleNamespace(success=(), ggcnn=None, calibration=None, q_threshold=0.0, gdnet=None, vanet=None,
+                            gate_table=rate_gate.load(run, "stage3 step 2"), source="stage3 step 2")
+    with pytest.raises(ValueError, match=r"measure it with python -m vags_jax\.stages\.gate_measure --run RUN"):
+        vags_params(stale, C.replace(C.tiny(), **{"vags.gate": "rate"}))
+    code, line = _cli(gate_measure.main, ["--run", run, "--worlds", "0"], capsys)
+    assert code == 2 and line == "python -m vags_jax.stages.gate_measure: --worlds must be at least 1, got 0"
+    code, line = _cli(gate_measure.main, ["--run", str(tmp_path / "none")], capsys)
+    assert code == 2 and line.startswith("python -m vags_jax.stages.gate_measure: ") and "none" in line, line

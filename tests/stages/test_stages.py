@@ -264,6 +264,34 @@ def test_eval_vags_sweep_csv_and_record(runs, tmp_path, capsys):
     assert second["overall"] == report["overall"]
 
 
+def test_gate_measure_writes_a_table_the_rate_gate_plays(runs, tmp_path, capsys):
+    """python -m vags_jax.stages.gate_measure on the pipeline's run: RUN/gate.json names the
+    networks it measured and holds a table whose move values follow from its own figures at its
+    rate; eval.py --set vags.gate=rate then plays, and moves exactly where those values say."""
+    from vags_jax.stages import gate_measure
+
+    full, _ = runs
+    run = str(tmp_path / "run")
+    shutil.copytree(full, run)
+    assert gate_measure.main(["--run", run, "--worlds", "2", "--steps", "2", "--bins", "2"]) == 0
+    assert "picks per second of the best gate" in capsys.readouterr().out
+    with open(os.path.join(run, "gate.json")) as f:
+        t = json.load(f)
+    assert t["networks"] == "stage3 step 4" and t["live_states"] == sum(t["states"]) <= 4
+    for direct, moved, extra, value in zip(t["direct"], t["moved"], t["extra_seconds"], t["move_value"]):
+        assert 0 <= direct <= 1 and 0 <= moved <= 1
+        assert value == pytest.approx(moved - direct - t["rate"] * extra)
+    out = str(tmp_path / "rate.json")
+    assert eval_cli.main(["--run", run, "--groups", "1", "--rounds", "2", "--set", "vags.gate=rate", "--out", out]) == 0
+    with open(out) as f:
+        report = json.load(f)
+    assert report["threshold"] == 0.0 and report["overall"]["attempts"] > 0
+    if all(v > 0 for v in t["move_value"]):
+        assert report["overall"]["viewpoint_rate"] == 1.0
+    if all(v < 0 for v in t["move_value"]):
+        assert report["overall"]["viewpoint_rate"] == 0.0
+
+
 def test_metrics_are_sane(runs):
     rows = _metrics(os.path.join(runs[0], "metrics.jsonl"))
     for r in rows:

@@ -83,6 +83,20 @@ def check_groups(groups: Sequence[int], cfg: Config, rounds: int = 1) -> tuple[i
     return tuple(int(k) for k in groups)
 
 
+
+def lifted_position(cfg: Config, position: jax.Array) -> jax.Array:
+    """(B, 3) grasp points -> (B, 3) where the gripper is after the lift (the grasp primitive's
+    lift height above the grasp depth, itself at least the minimum above the table)."""
+    g, tz = cfg.grasp, cfg.workspace.table_z
+    return jnp.stack([position[:, 0], position[:, 1],
+                      jnp.maximum(position[:, 2], tz + g.min_height_above_table) + g.lift_height], 1)
+
+
+def return_distance(cfg: Config, position: jax.Array, start: jax.Array) -> jax.Array:
+    """(B,) metres from the lifted gripper back to the global capture pose ``start`` (3,): the
+    return a failed grasp costs (``MotionTimeModel``)."""
+    return jnp.linalg.norm(lifted_position(cfg, position) - start, axis=1)
+
 class Evaluator:
     """Runs benchmark rounds for one config.  Build once; compiled once per policy (and batch
     size), reused for every group."""
@@ -103,7 +117,6 @@ class Evaluator:
         plan's attempts may push (``Attempt.push``): a push is one motion and no grasp
         attempt, and a round's budget of ``2 * objects + extra`` counts pushes and grasps."""
         env, cfg = self.env, self.cfg
-        g, tz = cfg.grasp, cfg.workspace.table_z
         B = s0.n_worlds
         extra = cfg.benchmark.max_attempts_extra
         budget = jnp.max(env.max_attempts(s0.sim.n_objects, extra))
@@ -131,8 +144,7 @@ class Evaluator:
             keep = c.done
             s2 = where_worlds(keep, c.env, s2)
             position = attempt.position
-            lifted = jnp.stack([position[:, 0], position[:, 1],
-                                jnp.maximum(position[:, 2], tz + g.min_height_above_table) + g.lift_height], 1)
+            lifted = lifted_position(cfg, position)
             if pushes:  # a push returns from where its lift ended
                 lifted = jnp.where(push[:, None], pushed.end, lifted)
             back = jnp.linalg.norm(lifted - self._start, axis=1)

@@ -22,6 +22,7 @@ from vags_jax.benchmark import reports
 from vags_jax.perception import render
 from vags_jax.policies import catalog as P
 from vags_jax.sim import scene
+from vags_jax.policies import rate_gate
 from vags_jax.stages import checkpoint, rundir
 from vags_jax.stages.ggcnn import ggcnn_dir, load_ggcnn
 from vags_jax.stages.vpg import load_vpg
@@ -321,6 +322,9 @@ def prepare_eval(args) -> SimpleNamespace:
             raise ValueError("give the speed once: --speed or --set benchmark.speed=...")
         overrides["benchmark.speed"] = args.speed
     vpg_variables = vpg_step = None
+    if policy == "vags" and args.run and overrides.get("vags.gate") == "rate" and rate_gate.load(args.run) is None:
+        raise ValueError(f"vags.gate=rate needs the run's measured gate table, and {args.run} has no "
+                         f"{rate_gate.GATE_FILE}: measure it with python -m vags_jax.stages.gate_measure --run RUN")
     if policy == "vpg":  # VPG's own config and networks (RUN/vpg): no VPG in the run, damaged files
         run_cfg, vpg_variables, vpg_step = load_vpg(args.run, args.step)
         networks = ggcnn_params = ggcnn_cfg = None

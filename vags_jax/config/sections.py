@@ -641,7 +641,7 @@ class Stage:
 
 
 VAGS_LOCAL_PLANNERS = ("gdnet", "ggcnn")
-VAGS_GATES = ("success", "q")
+VAGS_GATES = ("success", "q", "rate")
 VAGS_VIEW_REWARDS = ("success", "eq5")
 VAGS_VIEW_ESTIMATES = ("mean", "vanet")
 VAGS_VIEWPOINTS = ("vanet", "grasp")
@@ -660,7 +660,9 @@ class Vags:
     gate: when to move.  "success": move when VANet's estimate of the success after a move
       exceeds the success net's estimate of GDNet's direct grasp by more than ``move_cost``
       (both nets are trained with gamma 0 on 0/1 rewards, so both estimate a probability);
-      "q": move when GDNet's largest Q is at most the threshold (the paper's rule).
+      "q": move when GDNet's largest Q is at most the threshold (the paper's rule); "rate": move
+      where a move raises the picks per hour, by a table measured on the trained run
+      (``python -m vags_jax.stages.gate_measure --run RUN``; evaluation and predict only).
     threshold / threshold_quantile: the "q" gate's threshold; None calibrates it (the quantile
       of the frozen GDNet's largest Q over stage 2's first views), and again at stage 3's end
       over its last views (GDNet changed).  Stage 2 always gates with "q" (VANet and the

@@ -163,9 +163,13 @@ def vags_params(networks, cfg: Config, threshold=None) -> dict:
     run's ("q" gate) or ``-vags.move_cost`` ("success" gate), unless ``threshold`` overrides it
     (e.g. ``-inf`` for the VANet ablation).  ValueError when the config's gate or close-view
     planner needs a network the run lacks."""
-    if cfg.vags.gate == "success" and networks.success is None:
+    if cfg.vags.gate in ("success", "rate") and networks.success is None:
         raise ValueError(f"the run's networks ({networks.source}) have no success net (trained before the "
                          f"'success' gate): evaluate with --set vags.gate=q, or train the run again")
+    if cfg.vags.gate == "rate" and networks.gate_table is None:
+        raise ValueError(f"vags.gate=rate needs a gate table measured on the run's networks ({networks.source}) "
+                         f"in RUN/gate.json, and the run has none for them: measure it with "
+                         f"python -m vags_jax.stages.gate_measure --run RUN")
     if cfg.vags.local_planner == "ggcnn" and networks.ggcnn is None:
         raise ValueError("vags.local_planner=ggcnn needs a GG-CNN in the run (RUN/ggcnn): train one with "
                          "python train.py --stage ggcnn --out RUN")
@@ -181,6 +185,8 @@ def vags_params(networks, cfg: Config, threshold=None) -> dict:
         params["success"] = networks.success
     if networks.calibration is not None:
         params["calibration"] = networks.calibration
+    if cfg.vags.gate == "rate":
+        params["gate_table"] = jnp.asarray(networks.gate_table, jnp.float32)
     return params
 
 

@@ -11,7 +11,9 @@ state and the world grasps directly where the score exceeds the threshold:
   the success net at GDNet's argmax and p_view the expected success of the grasp after a move
   (``vags.view_estimate``: "mean", the running mean of that success over the run's greedy
   moves; "vanet", VANet's largest Q, VANet trained with gamma 0 on that success): move when a
-  move is expected to add more than ``move_cost`` of success.
+  move is expected to add more than ``move_cost`` of success;
+* ``"rate"``: score = minus the value of a move in p_direct's bin of the run's measured table
+  (``rate_gate``; RUN/gate.json), threshold 0: move where a move raises the picks per hour.
 
 A direct grasp is GDNet's argmax (1 motion).  Otherwise the camera moves to the viewpoint
 above VANet's argmax cell (or GDNet's: ``vags.viewpoint``; ``camera.viewpoint_pose``), takes the raw depth image there, and
@@ -32,6 +34,7 @@ from vags_jax import batching
 from vags_jax.perception import view_fusion
 from vags_jax.config import Config, Vags
 from vags_jax.ggcnn.planner import predict_grasp
+from vags_jax.policies import rate_gate
 from vags_jax.nets import make_qnet
 from vags_jax.nets.ggcnn import GGCNN
 from vags_jax.env import CameraImage, EnvState, VagsEnv, select_attempt
@@ -82,14 +85,21 @@ def value_at(q: jax.Array, action: jax.Array) -> jax.Array:
 
 
 def gate_score(gate: str, q_max: jax.Array, p_direct: Optional[jax.Array], p_view: Optional[jax.Array],
-               calibration: Optional[jax.Array] = None, view_estimate: str = "vanet"):
-    """The gate's score (B,): GDNet's largest Q ("q") or the calibrated p_direct - p_view
-    ("success").  calibration (2,) or (3,) [bias direct, bias view, mean success after a move]
+               calibration: Optional[jax.Array] = None, view_estimate: str = "vanet",
+               gate_table: Optional[jax.Array] = None):
+    """The gate's score (B,): GDNet's largest Q ("q"), the calibrated p_direct - p_view
+    ("success") or minus the measured value of a move at p_direct ("rate": gate_table (2, K),
+    ``rate_gate.GateTable.array``).  calibration (2,) or (3,) [bias direct, bias view, mean success after a move]
     (``update_calibration``): each estimate's running bias (estimate minus outcome) is
     subtracted from it (None: no correction).  view_estimate "mean" replaces p_view by the
     third entry, the same for every world (``config.Vags.view_estimate``)."""
     if gate == "q":
         return q_max.astype(jnp.float32)
+    if gate == "rate":
+        if p_direct is None or gate_table is None:
+            raise ValueError("the 'rate' gate needs the success net's estimate and the run's measured gate table "
+                             "(python -m vags_jax.stages.gate_measure --run RUN)")
+        return -rate_gate.move_value(jnp.asarray(gate_table, jnp.float32), p_direct).astype(jnp.float32)
     if p_direct is None or p_view is None:
         raise ValueError("the 'success' gate needs the success net's and VANet's estimates")
     cal = jnp.zeros((3,), jnp.float32) if calibration is None else jnp.asarray(calibration, jnp.float32)
@@ -126,9 +136,12 @@ def initial_calibration() -> jax.Array:
 
 
 def gate_threshold(vcfg: Vags, q_threshold) -> jax.Array:
-    """The threshold the gate's score is compared with: the Q threshold ("q") or -move_cost."""
+    """The threshold the gate's score is compared with: the Q threshold ("q"), -move_cost
+    ("success") or 0 ("rate": the table's move values already count the move's time)."""
     if vcfg.gate == "q":
         return jnp.asarray(q_threshold, jnp.float32)
+    if vcfg.gate == "rate":
+        return jnp.zeros((), jnp.float32)
     return jnp.asarray(-vcfg.move_cost, jnp.float32)
 
 
@@ -143,10 +156,11 @@ def _check_maps(q_grasp, q_view) -> None:
 
 def decide(q_grasp: jax.Array, q_view: jax.Array, threshold, q_success: Optional[jax.Array] = None,
            gate: str = "q", calibration: Optional[jax.Array] = None, view_estimate: str = "vanet",
-           viewpoint: str = "vanet") -> Decision:
+           viewpoint: str = "vanet", gate_table: Optional[jax.Array] = None) -> Decision:
     """The decision on Q maps: q_grasp (B, R, H, W), q_view (B, H, W), threshold scalar (or
     (B,)), q_success (B, R, H, W), calibration (3,) and view_estimate for the "success" gate
-    (``gate_score``); grasp directly where the gate's score exceeds ``threshold``.  The view is
+    (``gate_score``), gate_table (2, K) for the "rate" gate; grasp directly where the gate's
+    score exceeds ``threshold``.  The view is
     VANet's argmax cell, or GDNet's with ``viewpoint="grasp"`` (``config.Vags.viewpoint``)."""
     _check_maps(q_grasp, q_view)
     grasp, q_max = greedy(q_grasp)
@@ -154,7 +168,7 @@ def decide(q_grasp: jax.Array, q_view: jax.Array, threshold, q_success: Optional
     if viewpoint == "grasp":
         view = grasp[:, 1:]
     p_direct = None if q_success is None else value_at(q_success, grasp)
-    score = gate_score(gate, q_max, p_direct, v_max, calibration, view_estimate)
+    score = gate_score(gate, q_max, p_direct, v_max, calibration, view_estimate, gate_table)
     return Decision(direct=score > threshold, grasp=grasp, view=view, q_max=q_max, score=score)
 
 
@@ -234,11 +248,11 @@ class VagsNets:
 
     def q_maps(self, params: dict, color: jax.Array, height: jax.Array):
         """Global maps color (B, H, W, 3) / height (B, H, W) -> (GDNet's Q (B, R, H, W), VANet's Q
-        (B, H, W), the success net's (B, R, H, W) for the "success" gate, else None)."""
+        (B, H, W), the success net's (B, R, H, W) for the "success" and "rate" gates, else None)."""
         q_grasp = self.gdnet_q(params["gdnet"])(color, height)
         q_view = self.q_fn(self.vanet, params["vanet"])(color, height)
         q_success = None
-        if self.cfg.vags.gate == "success":
+        if self.cfg.vags.gate in ("success", "rate"):
             q_success = self.q_fn(self.gdnet, params["success"])(color, height)
         return q_grasp, q_view, q_success
 
@@ -246,7 +260,8 @@ class VagsNets:
         """-> (Decision, GDNet's Q (B, R, H, W), VANet's Q (B, H, W)) on the global views."""
         q_grasp, q_view, q_success = self.q_maps(params, state.color, state.height)
         decision = decide(q_grasp, q_view, params["threshold"], q_success, self.cfg.vags.gate,
-                          params.get("calibration"), self.cfg.vags.view_estimate, self.cfg.vags.viewpoint)
+                          params.get("calibration"), self.cfg.vags.view_estimate, self.cfg.vags.viewpoint,
+                          params.get("gate_table"))
         return decision, q_grasp, q_view
 
     def plan(self, params: dict, key, env: VagsEnv, state: EnvState):

@@ -23,7 +23,7 @@ from vags_jax.config import Camera
 from vags_jax.env import grasp_pose
 from vags_jax.ggcnn.planner import predict_grasp
 from vags_jax.perception import camera, heightmap
-from vags_jax.policies import decision
+from vags_jax.policies import decision, rate_gate
 from vags_jax.policies.catalog import vags_params
 from vags_jax.policies.decision import VagsNets
 from vags_jax.stages import checkpoint, rundir
@@ -140,6 +140,7 @@ class FramePolicy:
                                     q_threshold=np.float32(0.0), gdnet=None, vanet=None,
                                     calibration=(np.zeros(checkpoint.part_shapes(d, s, "calibration")[0], np.float32)
                                                  if "calibration" in parts else None),
+                                    gate_table=rate_gate.load(run_dir, f"{found[0]} step {s}"),
                                     source=f"{found[0]} step {s}"), cfg)
         if cfg.vags.local_planner == "ggcnn":
             self.ggcnn_camera = checkpoint.load_config(ggcnn_dir(run_dir)).camera
@@ -217,6 +218,11 @@ class FramePolicy:
                 "q_max": _json_float(g["q_max"][0])}
         if v.gate == "q":
             return gate, f"GDNet's largest Q {score:.4f} {rel} threshold {thr:.4f}: {verdict}"
+        if v.gate == "rate":
+            p_d = float(g["p_direct"][0])
+            gate.update(p_direct=_json_float(p_d), move_value=_json_float(-score))
+            return gate, (f"success estimate of the direct grasp {p_d:.3f}: a move there is worth {-score:+.4f} "
+                          f"(the run's measured gate table; positive raises the picks per hour): {verdict}")
         cal = np.zeros(3) if self.params.get("calibration") is None else np.asarray(self.params["calibration"])
         p_d, p_v = float(g["p_direct"][0]), float(g["p_view"][0])
         gate.update(p_direct=_json_float(p_d), p_view=_json_float(p_v), calibration=_json_floats(cal),
@@ -269,7 +275,7 @@ def _global_program(params, depth, rgb, pose, *, cfg, cam, gdnet_only):
     else:
         q_grasp, q_view, q_success = nets.q_maps(params, color, height)
         d = decision.decide(q_grasp, q_view, params["threshold"], q_success, cfg.vags.gate, params.get("calibration"),
-                            cfg.vags.view_estimate, cfg.vags.viewpoint)
+                            cfg.vags.view_estimate, cfg.vags.viewpoint, params.get("gate_table"))
         _, p_view = decision.greedy(q_view)
         out.update(grasp=d.grasp, q_max=d.q_max, score=d.score, direct=d.direct, view=d.view, p_view=p_view,
                    view_pose=camera.viewpoint_pose(d.view, height, cfg.workspace, cfg.camera))

@@ -140,6 +140,14 @@ def check_data_dir(data_dir) -> str:
 
 
 
+def check_trainable_gate(cfg) -> None:
+    """The "rate" gate is measured on a trained run (``stages.gate_measure``), not trained with."""
+    if cfg.vags.gate == "rate":
+        raise ValueError("vags.gate=rate is measured on a trained run, not trained with: train with "
+                         "vags.gate=success, then python -m vags_jax.stages.gate_measure --run RUN and "
+                         "eval.py --run RUN --set vags.gate=rate")
+
+
 def prepare_stage1(args) -> SimpleNamespace:
     """Everything that can be checked before building or compiling anything: the config, --out,
     and with --resume the run's config.json and latest checkpoint (read into host memory and
@@ -150,6 +158,7 @@ def prepare_stage1(args) -> SimpleNamespace:
         check_fresh_out(args.out)
         cfg = C.replace(C.preset("tiny" if args.config is None else args.config), **overrides)
         scene.build_spec(cfg)  # the scene's own checks (shape names), in milliseconds
+        check_trainable_gate(cfg)
         check_net_init(cfg)
         check_machine(cfg, ("stage1",), args)
         return SimpleNamespace(cfg=cfg, step=0, arrays=None, done=None, raised_from=None)
@@ -259,6 +268,7 @@ def prepare_pipeline(args, only):
         check_fresh_out(args.out)
         cfg = C.replace(C.preset("tiny" if args.config is None else args.config), **overrides)
         scene.build_spec(cfg)  # the scene's own checks (an unknown shape), before anything is written
+        check_trainable_gate(cfg)
         if rundir.needs_ggcnn(cfg):
             check_ggcnn_config(cfg)
         check_net_init(cfg)

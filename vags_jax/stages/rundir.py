@@ -35,6 +35,7 @@ from vags_jax.stages.stage23 import final_threshold
 from vags_jax.rl import dqn
 from vags_jax.config import Config
 from vags_jax.nets import init_qnet, make_qnet, nbv_net
+from vags_jax.policies import rate_gate
 
 ORDER = ("ggcnn", "stage1", "stage2", "stage3")
 # Stages outside the pipeline's fold, trained only when asked for (train.py --stage NAME), with
@@ -167,6 +168,7 @@ class VagsNetworks:
     q_threshold: jax.Array
     success: Any = None
     calibration: Any = None
+    gate_table: Any = None  # (2, K) the "rate" gate's measured table (RUN/gate.json), None without one
     source: str = struct.field(pytree_node=False, default="")
 
 
@@ -221,7 +223,7 @@ def load_vags(run_dir: str, cfg: Optional[Config] = None, step: Optional[int] = 
     if os.path.isdir(ggcnn_stage.ggcnn_dir(run_dir)):
         gg, _ = ggcnn_stage.load_ggcnn(run_dir)
     return VagsNetworks(gdnet=gd, vanet=va, ggcnn=gg, q_threshold=jnp.asarray(thr, jnp.float32), success=su,
-                        calibration=cal,
+                        calibration=cal, gate_table=rate_gate.load(run_dir, f"{found[0]} step {s}"),
                         source=f"{found[0]} step {s}")
 
 

@@ -1,0 +1,73 @@
+"""The "rate" gate (vags_jax/policies/rate_gate.py): Dinkelbach's choice, the binned table, the
+lookup inside the decision, RUN/gate.json; expectations worked out by hand."""
+import json
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from vags_jax.policies import rate_gate
+from vags_jax.policies.decision import decide, gate_score, gate_threshold
+from vags_jax import config as C
+
+
+def test_best_rate_moves_exactly_the_bins_that_raise_picks_per_second():
+    # Two bins of 10 states.  Direct: success 0.9 and 0.5 in 5 s each -> 7 picks / 100 s = 0.07.
+    # A move adds 1 s and lifts bin 1 to 0.8: moving bin 1 gives (9 + 8) / (50 + 60) = 0.1545...;
+    # moving bin 0 too (0.92 there) gives (9.2 + 8) / 120 = 0.1433, lower: only bin 1 moves.
+    rate, move = rate_gate.best_rate([10, 10], [0.9, 0.5], [5, 5], [0.92, 0.8], [6, 6])
+    assert move.tolist() == [False, True]
+    assert rate == pytest.approx(17 / 110)
+    # A move that costs no time and adds success is always taken; one that adds nothing, never.
+    rate, move = rate_gate.best_rate([1, 1], [0.5, 0.5], [4, 4], [0.6, 0.5], [4, 6])
+    assert move.tolist() == [True, False] and rate == pytest.approx(1.1 / 8)
+
+
+def test_fit_bins_by_quantiles_and_values_moves_at_the_best_rate():
+    # p_direct 0.1..0.8 in 2 bins (edge: the median 0.45).  Low bin: direct 0/4, moved 4/4,
+    # 2 s more; high bin: direct 4/4, moved 2/4, 2 s more.  Direct alone: 4 picks / 40 s; moving
+    # the low bin: 8 / 48 = 1/6 per s, the best.  Values: low 1 - 2/6 = 2/3; high -0.5 - 1/3.
+    p = np.arange(1, 9) / 10
+    s_d = np.array([0, 0, 0, 0, 1, 1, 1, 1])
+    s_m = np.array([1, 1, 1, 1, 1, 0, 1, 0])
+    t_d = np.full(8, 5.0)
+    t_m = np.full(8, 7.0)
+    t = rate_gate.fit(p, s_d, t_d, s_m, t_m, 2)
+    assert t.edges == pytest.approx((0.45,)) and t.states == (4, 4)
+    assert t.direct == (0.0, 1.0) and t.moved == (1.0, 0.5) and t.extra_seconds == (2.0, 2.0)
+    assert t.rate == pytest.approx(1 / 6)
+    assert t.move_value == pytest.approx((2 / 3, -0.5 - 1 / 3))
+    np.testing.assert_allclose(t.array(), [[0.45, np.inf], [2 / 3, -0.5 - 1 / 3]], rtol=1e-6)
+    # Ties: 8 equal estimates make one bin, whatever was asked.
+    assert rate_gate.fit(np.full(8, 0.5), s_d, t_d, s_m, t_m, 4).states == (8,)
+    with pytest.raises(ValueError, match="one state per bin: 3 states for 4 bins"):
+        rate_gate.fit(p[:3], s_d[:3], t_d[:3], s_m[:3], t_m[:3], 4)
+
+
+def test_the_rate_gate_moves_where_the_table_says_a_move_pays():
+    table = jnp.array([[0.3, 0.7, jnp.inf], [0.2, -0.1, -0.4]], jnp.float32)
+    p_direct = jnp.array([0.1, 0.3, 0.5, 0.95])  # bins 0, 1 (an edge belongs to the upper bin), 1, 2
+    np.testing.assert_allclose(np.asarray(rate_gate.move_value(table, p_direct)), [0.2, -0.1, -0.1, -0.4], rtol=1e-6)
+    np.testing.assert_allclose(np.asarray(gate_score("rate", None, p_direct, None, None, "mean", table)),
+                               [-0.2, 0.1, 0.1, 0.4], rtol=1e-6)
+    with pytest.raises(ValueError, match="gate_measure"):
+        gate_score("rate", None, p_direct, None)
+    assert float(gate_threshold(C.replace(C.Config(), **{"vags.gate": "rate"}).vags, 1.7)) == 0.0
+    # decide: world 0's success estimate (0.1) falls in the bin where a move pays; world 1's (0.8) does not.
+    qg = np.zeros((2, 1, 2, 2), np.float32)
+    qg[:, 0, 1, 1] = 1.0
+    qs = np.zeros((2, 1, 2, 2), np.float32)
+    qs[:, 0, 1, 1] = [0.1, 0.8]
+    d = decide(jnp.asarray(qg), jnp.asarray(qg[:, 0]), 0.0, jnp.asarray(qs), "rate", gate_table=table)
+    assert np.asarray(d.direct).tolist() == [False, True]
+
+
+def test_gate_json_round_trip_and_stale_tables(tmp_path):
+    t = rate_gate.GateTable(edges=(0.5,), states=(3, 5), direct=(0.2, 0.9), moved=(0.7, 0.8),
+                            extra_seconds=(1.0, 1.2), rate=0.15, move_value=(0.35, -0.28))
+    path = rate_gate.save(str(tmp_path), t, {"networks": "stage3 step 80", "worlds": 4})
+    assert json.load(open(path))["worlds"] == 4
+    np.testing.assert_allclose(rate_gate.load(str(tmp_path)), [[0.5, np.inf], [0.35, -0.28]], rtol=1e-6)
+    assert rate_gate.load(str(tmp_path), "stage3 step 80") is not None
+    assert rate_gate.load(str(tmp_path), "stage3 step 96") is None  # measured on other networks
+    assert rate_gate.load(str(tmp_path / "nothing")) is None

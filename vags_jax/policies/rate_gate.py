@@ -1,0 +1,128 @@
+"""The "rate" gate (``vags.gate="rate"``): move the camera where a move raises the picks per
+hour, by a table measured on the trained run (``vags_jax.stages.gate_measure``).
+
+The table bins the success net's raw estimate p_direct (at GDNet's argmax) into K quantile
+bins.  Per bin it holds the success of the direct grasp and of the grasp after a move and the
+modelled robot seconds a move adds, all measured by executing both branches from the same
+states.  ``rate`` is the picks per second of the best choice per bin (Dinkelbach's iteration
+on the ratio of expected picks to expected seconds), and a bin's move value is
+``moved - direct - rate * extra_seconds``: a move pays where it is positive.  Unlike the
+"success" gate, the comparison needs no bias correction and no fixed move cost: both branches
+are measured on every state, and the motion's cost is its time at the rate the gate achieves.
+
+Stored as ``RUN/gate.json`` (``save`` / ``load``); ``GateTable.array()`` is the (2, K) array the
+jitted decision reads (``move_value``).
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+from typing import Optional
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+GATE_FILE = "gate.json"
+
+
+@dataclasses.dataclass(frozen=True)
+class GateTable:
+    """Per bin k of p_direct (K bins, ``edges`` (K-1,) between them): ``states`` counted,
+    success of the ``direct`` grasp and of the grasp after a move (``moved``), the modelled
+    seconds a move adds (``extra_seconds``, moved minus direct), and ``move_value`` =
+    moved - direct - rate * extra_seconds; ``rate``: picks per second of the best gate."""
+
+    edges: tuple
+    states: tuple
+    direct: tuple
+    moved: tuple
+    extra_seconds: tuple
+    rate: float
+    move_value: tuple
+
+    def array(self) -> np.ndarray:
+        """(2, K) float32: row 0 the bins' upper edges (the last +inf), row 1 ``move_value``."""
+        return np.stack([np.append(np.asarray(self.edges, np.float32), np.inf),
+                         np.asarray(self.move_value, np.float32)]).astype(np.float32)
+
+
+def best_rate(n, s_d, t_d, s_m, t_m, iterations: int = 50):
+    """Dinkelbach's iteration for the choice per bin that maximises expected picks over expected
+    seconds: n (K,) states, s_* success and t_* seconds (K,) of the direct and moved branches
+    -> (rate, move (K,) bool).  Each step moves exactly the bins whose extra success beats the
+    current rate times their extra seconds; the rate never falls and the choices are finitely
+    many, so it stops at the optimum."""
+    n, s_d, t_d, s_m, t_m = (np.asarray(x, np.float64) for x in (n, s_d, t_d, s_m, t_m))
+    move = np.zeros(n.shape, bool)
+    rate = float(np.sum(n * s_d) / np.sum(n * t_d))
+    for _ in range(iterations):
+        new = (s_m - s_d) - rate * (t_m - t_d) > 0
+        new_rate = float(np.sum(n * np.where(new, s_m, s_d)) / np.sum(n * np.where(new, t_m, t_d)))
+        if np.array_equal(new, move) or new_rate <= rate + 1e-12:
+            break
+        move, rate = new, new_rate
+    return rate, move
+
+
+def fit(p, s_d, t_d, s_m, t_m, n_bins: int) -> GateTable:
+    """Per-state (N,) arrays -> ``GateTable`` over ``n_bins`` quantile bins of p (bins that
+    would be empty are merged, so ties in p give fewer bins)."""
+    p = np.asarray(p, np.float64)
+    if n_bins < 1 or p.size < n_bins:
+        raise ValueError(f"the gate table needs at least one state per bin: {p.size} states for {n_bins} bins")
+    edges = np.unique(np.quantile(p, np.linspace(0, 1, n_bins + 1)[1:-1]))
+    used = np.unique(np.searchsorted(edges, p, side="right"))
+    edges = edges[used[1:] - 1]  # the lower edge of every non-empty bin but the first
+    k = np.searchsorted(edges, p, side="right")
+    per = lambda x: np.array([np.mean(np.asarray(x, np.float64)[k == i]) for i in range(edges.size + 1)])  # noqa: E731
+    n = np.bincount(k, minlength=edges.size + 1)
+    sd, td, sm, tm = per(s_d), per(t_d), per(s_m), per(t_m)
+    rate, _ = best_rate(n, sd, td, sm, tm)
+    f = lambda x: tuple(float(v) for v in x)  # noqa: E731
+    return GateTable(edges=f(edges), states=tuple(int(v) for v in n), direct=f(sd), moved=f(sm),
+                     extra_seconds=f(tm - td), rate=float(rate), move_value=f((sm - sd) - rate * (tm - td)))
+
+
+def move_value(table: jax.Array, p_direct: jax.Array) -> jax.Array:
+    """table (2, K) (``GateTable.array``), p_direct (B,) -> (B,) the move value of each world's
+    bin (positive: a move raises the picks per hour)."""
+    k = jnp.searchsorted(table[0, :-1], p_direct, side="right")
+    return table[1, k]
+
+
+def save(run_dir: str, table: GateTable, meta: dict) -> str:
+    """Writes RUN/gate.json (the table's fields and ``meta``) -> its path."""
+    path = os.path.join(run_dir, GATE_FILE)
+    with open(path, "w") as f:
+        json.dump({**dataclasses.asdict(table), **meta}, f, indent=1)
+    return path
+
+
+def load(run_dir: str, networks: Optional[str] = None) -> Optional[np.ndarray]:
+    """RUN/gate.json -> (2, K) float32 (``GateTable.array``); None when the run has none, or
+    when ``networks`` (e.g. "stage3 step 80") is not the networks it was measured on."""
+    path = os.path.join(run_dir, GATE_FILE)
+    if not os.path.isfile(path):
+        return None
+    with open(path) as f:
+        d = json.load(f)
+    if networks is not None and d.get("networks") != networks:
+        return None
+    fields = {f.name for f in dataclasses.fields(GateTable)}
+    return GateTable(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in d.items() if k in fields}).array()
+
+
+def describe(table: GateTable) -> str:
+    """A Markdown table of the bins."""
+    lines = [f"picks per second of the best gate: {table.rate:.4f} ({3600 * table.rate:.0f} per hour at one attempt "
+             "per state)", "", "| p_direct bin | states | direct % | after a move % | extra s | move value | moves |",
+             "|---|---:|---:|---:|---:|---:|---|"]
+    lo = ["-inf"] + [f"{e:.3f}" for e in table.edges]
+    hi = [f"{e:.3f}" for e in table.edges] + ["inf"]
+    for i in range(len(table.states)):
+        lines.append(f"| [{lo[i]}, {hi[i]}) | {table.states[i]} | {100 * table.direct[i]:.1f} | "
+                     f"{100 * table.moved[i]:.1f} | {table.extra_seconds[i]:+.2f} | {table.move_value[i]:+.3f} | "
+                     f"{'yes' if table.move_value[i] > 0 else 'no'} |")
+    return "\n".join(lines)

@@ -1,0 +1,137 @@
+"""Measure the "rate" gate's table on a trained run (``vags_jax.policies.rate_gate``):
+
+    python -m vags_jax.stages.gate_measure --run runs/gpu        # writes runs/gpu/gate.json
+    python eval.py --run runs/gpu --set vags.gate=rate
+
+Why: the "success" gate's estimates are checked during stages 2-3 only where the gate chose
+that branch, so the success net is least checked exactly where the gate decides (a state sent
+to a move never shows its direct outcome), and the share of moves swings from one training
+run to the next (bench/RESULTS.md, "Viewpoints that pay, fourth look").  The simulator is pure,
+so after training both branches run from the same state:
+
+* fresh piles of stage 3's object counts (``worlds``); GDNet grasps directly for ``steps``
+  attempts, and every state on the way is measured;
+* from each state the direct grasp and the grasp after a move (VANet's viewpoint, or
+  ``vags.viewpoint``; the configured close-view planner) each run in their own copy of the
+  physics, with the benchmark's modelled robot seconds (``MotionTimeModel``; a failed grasp
+  also pays its return to the global pose);
+* ``rate_gate.fit`` bins the success net's raw p_direct and writes the table to RUN/gate.json.
+Shapes: B = ``worlds``.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from vags_jax.benchmark.metrics import MotionTimeModel
+from vags_jax.benchmark.protocol import return_distance
+from vags_jax.config import replace
+from vags_jax.env import VagsEnv
+from vags_jax.policies import rate_gate
+from vags_jax.policies.catalog import vags_params
+from vags_jax.policies.decision import VagsNets, close_view_grasp, decide, value_at
+from vags_jax.stages import checkpoint, rundir
+
+PROG = "python -m vags_jax.stages.gate_measure"
+
+
+def make_collect(cfg, env: VagsEnv, nets: VagsNets):
+    """-> jitted ``(params, key, state) -> (next state, per-world dict of (B,) arrays)``:
+    ``p_direct`` the success net's raw estimate at GDNet's argmax; for each branch ("direct",
+    "moved") its ``success``, ``motions``, ``travel`` (m, camera move + approach + descend +
+    lift) and ``back`` (m, the return to the global pose after a failure); ``live`` worlds
+    with objects and no physics error.  The next state follows the direct grasp."""
+    start = jnp.asarray(cfg.camera.global_position, jnp.float32)
+
+    def branch(name, state, attempt):
+        _, r = env.step_attempt(state, attempt, observe=False)
+        back = jnp.where(r.success, 0.0, return_distance(cfg, attempt.position, start))
+        return {f"{name}_success": r.success, f"{name}_motions": attempt.motions,
+                f"{name}_travel": r.approach + r.descend + r.lift + attempt.view_travel, f"{name}_back": back}
+
+    def step(params, key, state):
+        k_img, k_obs = jax.random.split(key)
+        q_grasp, q_view, q_success = nets.q_maps(params, state.color, state.height)
+        d = decide(q_grasp, q_view, 0.0, None, "q", viewpoint=cfg.vags.viewpoint)
+        pos, yaw = env.grasp_pose(state, d.grasp[:, 1:], d.grasp[:, 0])
+        direct = env.direct_attempt(pos, yaw)
+        moved, _ = close_view_grasp(cfg, env, state, d.view, k_img, nets.gdnet_q(params["gdnet"]),
+                                    params.get("ggcnn"), nets.ggcnn)
+        out = {"p_direct": value_at(q_success, d.grasp),
+               "live": (env.n_remaining(state) > 0) & ~state.sim.error,
+               **branch("direct", state, direct), **branch("moved", state, moved)}
+        nxt, _ = env.step_attempt(state, direct, k_obs if cfg.camera.noise.enabled else None)
+        return nxt, out
+
+    return jax.jit(step)
+
+
+def seconds(rows: dict, name: str, time_model: MotionTimeModel) -> np.ndarray:
+    """(N,) modelled robot seconds of one attempt per state on branch ``name``."""
+    return time_model.round_seconds(1, rows[f"{name}_success"].astype(np.float64), rows[f"{name}_motions"],
+                                    rows[f"{name}_travel"], rows[f"{name}_back"])
+
+
+def measure(run_dir: str, worlds: int, steps: int, bins: int, seed: int, log=print):
+    """The gate table of a trained run (stage 3's networks, else stage 2's) -> (GateTable, meta)."""
+    cfg = replace(checkpoint.load_config(run_dir), **{"vags.gate": "success", "vags.view_estimate": "vanet"})
+    networks = rundir.load_vags(run_dir, cfg)
+    params = vags_params(networks, cfg)  # ValueError without a success net
+    stage = cfg.stage3
+    env, nets = VagsEnv(cfg), VagsNets(cfg)
+    step = make_collect(cfg, env, nets)
+    key = jax.random.PRNGKey(seed)
+    k_n, k_reset, key = jax.random.split(key, 3)
+    n_obj = jax.random.randint(k_n, (worlds,), stage.min_objects, stage.max_objects + 1)
+    t0 = time.time()
+    state = env.reset(k_reset, n_obj)
+    parts: dict[str, list] = {}
+    for t in range(steps):
+        key, k = jax.random.split(key)
+        state, out = step(params, k, state)
+        for name, v in jax.device_get(out).items():
+            parts.setdefault(name, []).append(np.asarray(v))
+        log(f"gate table: attempt {t + 1}/{steps} in {worlds} worlds, {time.time() - t0:.0f} s")
+    rows = {k: np.concatenate(v) for k, v in parts.items()}
+    live = rows["live"].astype(bool)
+    rows = {k: v[live] for k, v in rows.items()}
+    tm = MotionTimeModel.from_config(cfg)
+    table = rate_gate.fit(rows["p_direct"], rows["direct_success"], seconds(rows, "direct", tm),
+                          rows["moved_success"], seconds(rows, "moved", tm), bins)
+    meta = {"networks": networks.source, "worlds": worlds, "steps": steps, "seed": seed,
+            "objects": [stage.min_objects, stage.max_objects], "live_states": int(live.sum()),
+            "viewpoint": cfg.vags.viewpoint, "local_planner": cfg.vags.local_planner,
+            "wall_s": round(time.time() - t0, 1), "device": str(jax.devices()[0])}
+    return table, meta
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(prog=PROG, description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--run", required=True, help="a train.py run with stage 2 or 3 networks")
+    p.add_argument("--worlds", type=int, default=256, help="fresh piles (default 256)")
+    p.add_argument("--steps", type=int, default=4, help="direct attempts per pile, each state measured (default 4)")
+    p.add_argument("--bins", type=int, default=8, help="quantile bins of p_direct (default 8)")
+    p.add_argument("--seed", type=int, default=0)
+    args = p.parse_args(argv)
+    for name in ("worlds", "steps", "bins"):
+        if getattr(args, name) < 1:
+            print(f"{PROG}: --{name} must be at least 1, got {getattr(args, name)}", file=sys.stderr)
+            return 2
+    try:
+        table, meta = measure(args.run, args.worlds, args.steps, args.bins, args.seed,
+                              log=lambda m: print(m, file=sys.stderr, flush=True))
+    except (ValueError, checkpoint.CheckpointError, FileNotFoundError) as e:
+        print(f"{PROG}: {e}", file=sys.stderr)
+        return 2
+    print(rate_gate.describe(table))
+    print(f"wrote {rate_gate.save(args.run, table, meta)}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
