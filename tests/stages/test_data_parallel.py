@@ -5,6 +5,7 @@ subprocess started with ``XLA_FLAGS=--xla_force_host_platform_device_count=2``:
 ``train.py`` itself; they share the session's compile cache (conftest)."""
 import json
 import os
+import socket
 import subprocess
 import sys
 
@@ -152,3 +153,23 @@ def test_devices_flag_errors(tmp_path, capsys, argv, message):
     assert code == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and message in err[0], err
+
+
+def test_distributed_initialises_before_jax_starts(tmp_path):
+    """--distributed as the one process of a local "cluster" (JAX_COORDINATOR_ADDRESS,
+    JAX_NUM_PROCESSES=1, JAX_PROCESS_ID=0): jax.distributed.initialize() succeeds (it must come
+    before JAX touches a device), then --devices counts the devices it sees; without a
+    cluster's environment it is one line saying what to set."""
+    with socket.socket() as s:
+        s.bind(("localhost", 0))
+        port = s.getsockname()[1]
+    argv = [sys.executable, "train.py", "--distributed", "--config", "tiny", "--stage", "gdnet", "--devices", "2",
+            "--out", str(tmp_path / "run")]
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("JAX_COORDINATOR", "JAX_NUM_PROC", "JAX_PROCESS"))}
+    alone = subprocess.run(argv, cwd=ROOT, env={**env, "JAX_COORDINATOR_ADDRESS": f"localhost:{port}",
+                                                "JAX_NUM_PROCESSES": "1", "JAX_PROCESS_ID": "0"},
+                           capture_output=True, text=True, timeout=300)
+    assert alone.returncode == 2 and "asks for more devices than the 1 cpu" in alone.stderr, alone.stderr
+    bare = subprocess.run(argv, cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
+    lines = bare.stderr.strip().splitlines()
+    assert bare.returncode == 2 and len(lines) == 1 and "jax.distributed.initialize() failed" in lines[0], lines

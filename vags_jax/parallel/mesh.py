@@ -7,6 +7,7 @@ for it but has not been run on more than one host (README, "Several GPUs").
 """
 from __future__ import annotations
 
+import os
 from typing import Union
 
 import jax
@@ -17,11 +18,19 @@ from vags_jax.parallel.collectives import AXIS
 
 
 def initialize_distributed() -> None:
-    """``jax.distributed.initialize()`` with what the cluster's environment tells it (SLURM,
-    Open MPI, Kubernetes, or JAX_COORDINATOR_ADDRESS / JAX_NUM_PROCESSES / JAX_PROCESS_ID);
-    ValueError with JAX's first line when it cannot."""
+    """``jax.distributed.initialize()`` from the cluster's environment: a cluster manager JAX
+    detects itself (SLURM, Open MPI), or JAX_COORDINATOR_ADDRESS (host:port of process 0) with
+    JAX_NUM_PROCESSES and JAX_PROCESS_ID, passed on here.  ValueError with JAX's first line when
+    it fails."""
+    kwargs = {}
+    for env, arg in (("JAX_NUM_PROCESSES", "num_processes"), ("JAX_PROCESS_ID", "process_id")):
+        if os.environ.get(env):
+            try:
+                kwargs[arg] = int(os.environ[env])
+            except ValueError:
+                raise ValueError(f"--distributed: {env}={os.environ[env]!r} is not an integer") from None
     try:
-        jax.distributed.initialize()
+        jax.distributed.initialize(**kwargs)
     except (RuntimeError, ValueError) as e:
         first = (str(e).strip().splitlines() or [type(e).__name__])[0]
         raise ValueError(f"--distributed: jax.distributed.initialize() failed ({first[:200]}); run one process "
