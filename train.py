@@ -43,6 +43,13 @@ second Ctrl-C abandons the chunk and keeps the last checkpoint.  A world count w
 of device memory (vags_jax/stages/memory.py) exceeds the device's is refused before compiling.
 Compiled programs are cached on disk (--cache-dir, default ~/.cache/vags_jax/compiled): a
 resumed or repeated run loads them instead of compiling.
+
+    python train.py --config gpu --stage gdnet --devices all --out runs/dp   # stage 1 over every local GPU
+
+--devices N (or all) trains stage 1 data-parallel: each device steps n_worlds / N worlds, keeps
+its replay shard and samples batch_size / N; gradients and BatchNorm statistics are averaged.
+The count is the run's (parallel.devices in config.json): a resume keeps it.  Stages 2 and 3
+and the whole pipeline still run on one device.
 """
 from __future__ import annotations
 
@@ -50,6 +57,7 @@ import argparse
 import sys
 
 from vags_jax import cli
+from vags_jax.parallel import mesh as parallel_mesh
 from vags_jax.stages import driver
 
 PROG = "train.py"
@@ -96,6 +104,13 @@ def parse_args(argv=None):
                         "human summary then goes to stderr")
     p.add_argument("--verbose", action="store_true",
                    help="show third-party logs (Warp kernel loading, absl / orbax INFO), silenced by default")
+    p.add_argument("--devices", type=cli.devices, default=None, metavar="N|all",
+                   help="stage 1 (--stage gdnet) data-parallel over N local devices, or all of them: worlds, "
+                        "replay and batch split evenly (stage1.n_worlds, replay.capacity and dqn.batch_size must "
+                        "be multiples of N), gradients averaged; default 1 (a resumed run keeps its own count)")
+    p.add_argument("--distributed", action="store_true",
+                   help="call jax.distributed.initialize() first (one process per host, from the cluster's "
+                        "environment), so that --devices counts every host's devices (untested on several hosts)")
     cli.add_cache_dir(p)
     p.add_argument("--tensorboard", default=None, metavar="DIR",
                    help="also stream every metrics row to TensorBoard event files in DIR (needs the "
@@ -107,6 +122,11 @@ def main(argv=None, programs=None) -> int:
     """Parse, check, build, run, write (``vags_jax.stages.driver``) -> exit code.  ``programs``:
     a ``driver.Programs`` to reuse programs built by an earlier call in this process."""
     args = parse_args(argv)  # bad flags: one line, exit code 2
+    if args.distributed:  # before JAX touches a device
+        try:
+            parallel_mesh.initialize_distributed()
+        except ValueError as e:
+            return cli.fail(PROG, e)
     cli.quiet_third_party(args.verbose)
     error = cli.use_compile_cache(PROG, args.cache_dir)
     return error if error is not None else driver.train(args, programs)

@@ -43,6 +43,22 @@ def int_in(lo: int, hi: Optional[int] = None):
     return parse
 
 
+def devices(text: str):
+    """argparse type of --devices: a positive int, or "all"."""
+    if text == "all":
+        return text
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a positive int or 'all', got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be a positive int or 'all', got {text!r}")
+    return value
+
+
+devices.__name__ = "devices"
+
+
 def positive_float(hi: Optional[float] = None):
     """argparse type: a finite float in (0, hi]."""
 

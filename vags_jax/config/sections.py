@@ -985,6 +985,19 @@ class Benchmark:
 
 @dataclass(frozen=True)
 @checked
+class Parallel:
+    """Data-parallel training over local devices (``train.py --devices``;
+    ``vags_jax.stages.data_parallel``): stage 1's worlds, replay and batch are split evenly over
+    ``devices`` devices, gradients and BatchNorm statistics averaged.  1: one device, as before."""
+
+    devices: int = 1
+
+    def __post_init__(self):
+        _within("Parallel.devices", self.devices, 1, 4096)
+
+
+@dataclass(frozen=True)
+@checked
 class Config:
     """Everything, for one run."""
 
@@ -1013,6 +1026,7 @@ class Config:
     # VPG, the push-and-grasp baseline (train.py --stage vpg): its stage and its push primitive.
     vpg: Vpg = field(default_factory=Vpg)
     push: Push = field(default_factory=Push)
+    parallel: Parallel = field(default_factory=Parallel)
 
     def __post_init__(self):
         N = self.scene.max_objects
@@ -1033,6 +1047,12 @@ class Config:
                    f"({self.replay.capacity}): learning would never start")
         _check(self.net.n_rotations == self.grasp.n_rotations,
                "net.n_rotations must equal grasp.n_rotations")
+        d = self.parallel.devices
+        for what, n in (("stage1.n_worlds", self.stage1.n_worlds), ("replay.capacity", self.replay.capacity),
+                        ("dqn.batch_size", self.dqn.batch_size)):
+            _check(n % d == 0, f"{what} = {n} is not divisible by the {d} devices asked for (--devices / "
+                               f"parallel.devices): each device takes an equal share; make {what} a multiple "
+                               f"of {d}, or use fewer devices")
         _within("seed", self.seed, 0, 2**32 - 1)
         _check(self.scene.drop_margin < self.workspace.size / 2,
                f"scene.drop_margin ({self.scene.drop_margin} m) must be less than half of "

@@ -73,7 +73,7 @@ TRAIN_STREAM = 0x6767_0001
 HELDOUT_STREAM = 0x6767_0002
 # Config sections / fields that never change the data (training, post-processing, other stages).
 NOT_DATA = {
-    "net": None, "dqn": None, "replay": None, "stage1": None, "benchmark": None,
+    "net": None, "dqn": None, "replay": None, "stage1": None, "benchmark": None, "parallel": None,
     "exploration": ("daes", "eps_start", "eps_end", "eps_decay"),
     "ggcnn": ("quality_sigma", "angle_sigma", "width_sigma", "width_scale", "learning_rate",
               "batch_size", "zoom_range", "rotation", "train_steps", "labels", "untried_weight"),

@@ -22,7 +22,7 @@ momentum 0.9 (torch 0.1), epsilon 1e-5; ``train=True`` uses batch statistics and
 """
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Optional, Sequence
 
 import flax.linen as nn
 import jax
@@ -39,11 +39,13 @@ INIT_FEATURES = 64
 HE_NORMAL = nn.initializers.variance_scaling(2.0, "fan_in", "normal")
 
 
-def batch_norm(name: str, train: bool, dtype) -> nn.BatchNorm:
-    """torch-equivalent BatchNorm2d (momentum 0.1 -> flax 0.9, eps 1e-5), float32 params."""
+def batch_norm(name: str, train: bool, dtype, axis_name: Optional[str] = None) -> nn.BatchNorm:
+    """torch-equivalent BatchNorm2d (momentum 0.1 -> flax 0.9, eps 1e-5), float32 params.
+    ``axis_name``: in train mode the batch statistics are averaged over that mapped axis (data
+    parallel training: the statistics of the whole batch, split over devices)."""
     return nn.BatchNorm(
         use_running_average=not train, momentum=0.9, epsilon=1e-5,
-        dtype=dtype, param_dtype=jnp.float32, name=name,
+        dtype=dtype, param_dtype=jnp.float32, axis_name=axis_name, name=name,
     )
 
 
@@ -62,12 +64,13 @@ class DenseLayer(nn.Module):
     growth: int = GROWTH
     bn_size: int = BN_SIZE
     dtype: jnp.dtype = jnp.float32
+    axis_name: Optional[str] = None  # BatchNorm's (``batch_norm``)
 
     @nn.compact
     def __call__(self, x: jax.Array, train: bool) -> jax.Array:
-        y = nn.relu(batch_norm("norm1", train, self.dtype)(x))
+        y = nn.relu(batch_norm("norm1", train, self.dtype, self.axis_name)(x))
         y = conv(self.bn_size * self.growth, 1, "conv1", self.dtype)(y)
-        y = nn.relu(batch_norm("norm2", train, self.dtype)(y))
+        y = nn.relu(batch_norm("norm2", train, self.dtype, self.axis_name)(y))
         return conv(self.growth, 3, "conv2", self.dtype, pad=1)(y)
 
 
@@ -78,11 +81,12 @@ class DenseBlock(nn.Module):
     growth: int = GROWTH
     bn_size: int = BN_SIZE
     dtype: jnp.dtype = jnp.float32
+    axis_name: Optional[str] = None
 
     @nn.compact
     def __call__(self, x: jax.Array, train: bool) -> jax.Array:
         for i in range(self.n_layers):
-            y = DenseLayer(self.growth, self.bn_size, self.dtype, name=f"denselayer{i + 1}")(x, train)
+            y = DenseLayer(self.growth, self.bn_size, self.dtype, self.axis_name, name=f"denselayer{i + 1}")(x, train)
             x = jnp.concatenate([x, y], axis=-1)
         return x
 
@@ -92,10 +96,11 @@ class Transition(nn.Module):
 
     features: int
     dtype: jnp.dtype = jnp.float32
+    axis_name: Optional[str] = None
 
     @nn.compact
     def __call__(self, x: jax.Array, train: bool) -> jax.Array:
-        y = nn.relu(batch_norm("norm", train, self.dtype)(x))
+        y = nn.relu(batch_norm("norm", train, self.dtype, self.axis_name)(x))
         y = conv(self.features, 1, "conv", self.dtype)(y)
         return nn.avg_pool(y, (2, 2), strides=(2, 2), padding="VALID")
 
@@ -108,18 +113,20 @@ class DenseNet121(nn.Module):
     bn_size: int = BN_SIZE
     init_features: int = INIT_FEATURES
     dtype: jnp.dtype = jnp.float32
+    axis_name: Optional[str] = None
 
     @nn.compact
     def __call__(self, x: jax.Array, train: bool = False) -> jax.Array:
         x = x.astype(self.dtype)
         x = conv(self.init_features, 7, "conv0", self.dtype, stride=2, pad=3)(x)
-        x = nn.relu(batch_norm("norm0", train, self.dtype)(x))
+        x = nn.relu(batch_norm("norm0", train, self.dtype, self.axis_name)(x))
         x = nn.max_pool(x, (3, 3), strides=(2, 2), padding=((1, 1), (1, 1)))
         channels = self.init_features
         for b, n_layers in enumerate(self.block_config):
-            x = DenseBlock(n_layers, self.growth, self.bn_size, self.dtype, name=f"denseblock{b + 1}")(x, train)
+            x = DenseBlock(n_layers, self.growth, self.bn_size, self.dtype, self.axis_name,
+                           name=f"denseblock{b + 1}")(x, train)
             channels += n_layers * self.growth
             if b != len(self.block_config) - 1:
                 channels //= 2
-                x = Transition(channels, self.dtype, name=f"transition{b + 1}")(x, train)
-        return batch_norm("norm5", train, self.dtype)(x)
+                x = Transition(channels, self.dtype, self.axis_name, name=f"transition{b + 1}")(x, train)
+        return batch_norm("norm5", train, self.dtype, self.axis_name)(x)

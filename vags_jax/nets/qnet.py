@@ -69,12 +69,14 @@ def trunk_geometry(trunk: str, small_width: int = 32) -> TrunkGeometry:
     raise ValueError(f"trunk must be 'densenet121' or 'small', got {trunk!r}")
 
 
-def make_trunk(trunk: str, small_width: int, dtype, name: Optional[str] = None) -> nn.Module:
-    """A trunk module ``(N, P, P, 3) -> (N, P / s, P / s, channels)``."""
+def make_trunk(trunk: str, small_width: int, dtype, name: Optional[str] = None,
+               axis_name: Optional[str] = None) -> nn.Module:
+    """A trunk module ``(N, P, P, 3) -> (N, P / s, P / s, channels)``; ``axis_name``: its
+    BatchNorm statistics in train mode are averaged over that mapped axis (``densenet.batch_norm``)."""
     if trunk == "densenet121":
-        return densenet.DenseNet121(dtype=dtype, name=name)
+        return densenet.DenseNet121(dtype=dtype, axis_name=axis_name, name=name)
     if trunk == "small":
-        return small.SmallTrunk(width=small_width, dtype=dtype, name=name)
+        return small.SmallTrunk(width=small_width, dtype=dtype, axis_name=axis_name, name=name)
     raise ValueError(f"trunk must be 'densenet121' or 'small', got {trunk!r}")
 
 
@@ -179,12 +181,13 @@ class QHead(nn.Module):
 
     channels: int = 64
     dtype: jnp.dtype = jnp.float32
+    axis_name: Optional[str] = None  # BatchNorm's (``densenet.batch_norm``)
 
     @nn.compact
     def __call__(self, x: jax.Array, train: bool) -> jax.Array:
-        x = nn.relu(batch_norm("norm0", train, self.dtype)(x))
+        x = nn.relu(batch_norm("norm0", train, self.dtype, self.axis_name)(x))
         x = conv(self.channels, 1, "conv0", self.dtype)(x)
-        x = nn.relu(batch_norm("norm1", train, self.dtype)(x))
+        x = nn.relu(batch_norm("norm1", train, self.dtype, self.axis_name)(x))
         q = nn.Conv(1, (1, 1), use_bias=True, dtype=jnp.float32, param_dtype=jnp.float32,
                     kernel_init=HE_NORMAL, name="conv1")(x.astype(jnp.float32))
         return q[..., 0]
@@ -198,12 +201,15 @@ class _TwoStream(nn.Module):
     small_width: int = 32
     head_channels: int = 64
     dtype: str = "float32"
+    # Data-parallel training: train-mode BatchNorm statistics averaged over this mapped axis
+    # (``vags_jax.parallel``), so that a batch split over devices is normalised as a whole.
+    axis_name: Optional[str] = None
 
     def setup(self):
         dt = jnp.dtype(self.dtype)
-        self.colour_trunk = make_trunk(self.trunk, self.small_width, dt)
-        self.depth_trunk = make_trunk(self.trunk, self.small_width, dt)
-        self.head = QHead(self.head_channels, dt)
+        self.colour_trunk = make_trunk(self.trunk, self.small_width, dt, axis_name=self.axis_name)
+        self.depth_trunk = make_trunk(self.trunk, self.small_width, dt, axis_name=self.axis_name)
+        self.head = QHead(self.head_channels, dt, self.axis_name)
 
     @property
     def geometry(self) -> TrunkGeometry:
@@ -272,10 +278,12 @@ class VANet(_TwoStream):
 # ----------------------------------------------------------------------------- factories
 
 
-def make_qnet(net_cfg, kind: str = "gdnet") -> nn.Module:
-    """Build GDNet (``kind="gdnet"``) or VANet (``kind="vanet"``) from a ``config.Net``."""
+def make_qnet(net_cfg, kind: str = "gdnet", axis_name: Optional[str] = None) -> nn.Module:
+    """Build GDNet (``kind="gdnet"``) or VANet (``kind="vanet"``) from a ``config.Net``;
+    ``axis_name``: the data-parallel axis its train-mode BatchNorm statistics are averaged over
+    (None: one device)."""
     common = dict(trunk=net_cfg.trunk, small_width=net_cfg.small_width,
-                  head_channels=net_cfg.head_channels, dtype=net_cfg.dtype)
+                  head_channels=net_cfg.head_channels, dtype=net_cfg.dtype, axis_name=axis_name)
     if kind == "gdnet":
         return GDNet(n_rotations=net_cfg.n_rotations, **common)
     if kind == "vanet":

@@ -14,6 +14,8 @@ weights + 448 BN affine = 313,280 parameters (see ``param_count``).
 """
 from __future__ import annotations
 
+from typing import Optional
+
 import flax.linen as nn
 import jax
 import jax.numpy as jnp
@@ -40,11 +42,12 @@ class SmallTrunk(nn.Module):
 
     width: int = 32
     dtype: jnp.dtype = jnp.float32
+    axis_name: Optional[str] = None  # BatchNorm's (``densenet.batch_norm``)
 
     @nn.compact
     def __call__(self, x: jax.Array, train: bool = False) -> jax.Array:
         x = x.astype(self.dtype)
         for i, mult in enumerate((1, 2, 4)):
             x = conv(mult * self.width, 4, f"conv{i}", self.dtype, stride=2, pad=1)(x)
-            x = nn.relu(batch_norm(f"norm{i}", train, self.dtype)(x))
+            x = nn.relu(batch_norm(f"norm{i}", train, self.dtype, self.axis_name)(x))
         return conv(4 * self.width, 3, "conv3", self.dtype, pad=1)(x)

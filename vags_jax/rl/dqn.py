@@ -10,7 +10,7 @@ called with ``mutable=['batch_stats']`` and returns ``(q, {'batch_stats': ...})`
 """
 from __future__ import annotations
 
-from typing import Any, Callable
+from typing import Any, Callable, Optional
 
 import flax.struct
 import jax
@@ -18,6 +18,7 @@ import jax.numpy as jnp
 import optax
 
 from vags_jax.config import DQN
+from vags_jax.parallel import collectives
 from vags_jax.rl import replay
 
 PyTree = Any
@@ -137,7 +138,8 @@ def huber_loss_at_action(q: jax.Array, action: jax.Array, y: jax.Array, weights:
 
 
 # Long (one reason): target, loss and optimizer step share one closure over the config and apply_fn.
-def make_update_step(apply_fn: Callable, cfg: DQN, executed_rotation_only: bool = False) -> Callable:
+def make_update_step(apply_fn: Callable, cfg: DQN, executed_rotation_only: bool = False,
+                     axis_name: Optional[str] = None) -> Callable:
     """Build ``update(train_state, batch, weights) -> (train_state, metrics, td_errors (b,))``.
 
     ``executed_rotation_only`` (GDNet): the online network is evaluated only at each sample's
@@ -156,6 +158,13 @@ def make_update_step(apply_fn: Callable, cfg: DQN, executed_rotation_only: bool 
     network in train mode, whose BatchNorm statistics are updated.  After the optimizer step,
     the target network (params and batch_stats) is copied from the online one whenever the new
     step count is a multiple of ``cfg.target_update_period``.  Jittable.
+
+    ``axis_name`` (data-parallel training, under ``jax.shard_map``): ``batch`` is this device's
+    share of the batch; the gradients and the metrics are averaged over the axis before the
+    optimizer step, so that parameters and optimizer state stay identical on every device.
+    ``apply_fn``'s network must average its BatchNorm statistics over the same axis
+    (``make_qnet(..., axis_name=)``); the update then equals the one-device update of the whole
+    batch (up to float rounding).  ``td_errors`` stay per device (this device's replay shard).
     """
     tx = make_optimizer(cfg)
 
@@ -199,6 +208,7 @@ def make_update_step(apply_fn: Callable, cfg: DQN, executed_rotation_only: bool 
             return loss, (td, new_vars.get("batch_stats", ts.batch_stats), q, batch.action)
 
         (loss, (td, batch_stats, q, q_action)), grads = jax.value_and_grad(loss_fn, has_aux=True)(ts.params)
+        grads = collectives.mean(grads, axis_name)  # every device's share of the batch
         updates, opt_state = tx.update(grads, ts.opt_state, ts.params)
         params = optax.apply_updates(ts.params, updates)
         step = ts.step + 1
@@ -212,32 +222,37 @@ def make_update_step(apply_fn: Callable, cfg: DQN, executed_rotation_only: bool 
             target_batch_stats=pick(batch_stats, ts.target_batch_stats),
             opt_state=opt_state,
         )
-        metrics = {
+        means = collectives.mean({
             "loss": loss,
             "td_abs_mean": jnp.mean(jnp.abs(td)),
             "q_taken_mean": jnp.mean(q_at_action(q.astype(jnp.float32), q_action)),
             "q_max_mean": jnp.mean(_flat_max(q.astype(jnp.float32))),
             "target_mean": jnp.mean(y),
-            "grad_norm": optax.tree.norm(grads),
-            "target_synced": sync,
-        }
+        }, axis_name)
+        metrics = {**means, "grad_norm": optax.tree.norm(grads), "target_synced": sync}
         return new_ts, metrics, td
 
     return update
 
 
 def learn_from_replay(update: Callable, learner: TrainState, buffer, key: jax.Array, cfg, n_updates: int,
-                      learning_starts: int):
+                      learning_starts: int, axis_name: Optional[str] = None):
     """``n_updates`` updates of one network from its prioritized replay (``vags_jax.rl.replay``),
     none until the buffer holds ``learning_starts`` transitions; ``update`` from
     ``make_update_step``, ``cfg`` the whole Config (its ``dqn`` and ``replay`` sections).
-    Returns (learner, buffer, (mean loss, mean |td|) (2,), updates done ())."""
-    ready = buffer.size >= max(learning_starts, 1)
+    Returns (learner, buffer, (mean loss, mean |td|) (2,), updates done ()).
+
+    ``axis_name`` (data parallel): ``buffer`` is this device's replay shard and ``cfg`` the
+    per-device config (its ``dqn.batch_size`` this device's share); updates start once every
+    shard holds ``learning_starts``, so that all devices update together; ``key`` should
+    differ per device (``collectives.device_key``)."""
+    ready = collectives.smallest(buffer.size, axis_name) >= max(learning_starts, 1)
 
     def one(carry, k):
         def do(args):
             learner, buffer = args
-            idx, batch, w = replay.sample(buffer, k, cfg.dqn.batch_size, cfg.replay.alpha, cfg.replay.beta)
+            idx, batch, w = replay.sample(buffer, k, cfg.dqn.batch_size, cfg.replay.alpha, cfg.replay.beta,
+                                          axis_name)
             learner, m, td = update(learner, batch, w)
             buffer = replay.update_priorities(buffer, idx, td, cfg.replay.priority_eps)
             return (learner, buffer), jnp.stack([m["loss"], m["td_abs_mean"]])

@@ -35,6 +35,8 @@ import flax.struct
 import jax
 import jax.numpy as jnp
 
+from vags_jax.parallel import collectives
+
 PyTree = Any
 
 
@@ -172,12 +174,17 @@ def add(state: ReplayState, transitions: PyTree, mask: Optional[jax.Array] = Non
     )
 
 
-def sample(state: ReplayState, key: jax.Array, batch_size: int, alpha: float, beta: float):
+def sample(state: ReplayState, key: jax.Array, batch_size: int, alpha: float, beta: float,
+           axis_name: Optional[str] = None):
     """Draw ``batch_size`` items i.i.d. with P(i) proportional to priority_i^alpha over the valid
     slots.  Returns ``(indices (b,) int32, transitions (leaves (b, ...)), weights (b,) float32)``;
     weights are (N P(i))^-beta normalised so that the largest in the batch is 1.
     Sampling an empty buffer returns slot 0 (zeros) with NaN weights: gate updates on
     ``state.size`` (e.g. with ``lax.cond``).
+
+    ``axis_name`` (data parallel, one replay shard per device): each device samples its share
+    of the batch from its shard, and the weights are normalised by the largest over all devices'
+    samples, so that the batch as a whole is weighted as one batch.
     """
     cap = state.capacity
     valid = jnp.arange(cap) < state.size
@@ -191,7 +198,7 @@ def sample(state: ReplayState, key: jax.Array, batch_size: int, alpha: float, be
     idx = jnp.clip(idx, 0, jnp.maximum(state.size - 1, 0))  # u rounding up to `total`
     probs = p[idx] / total
     log_w = -beta * (jnp.log(state.size.astype(jnp.float32)) + jnp.log(probs))
-    weights = jnp.exp(log_w - jnp.max(log_w))
+    weights = jnp.exp(log_w - collectives.largest(jnp.max(log_w), axis_name))
     batch = jax.tree.map(lambda buf: buf[idx], state.data)
     return idx, batch, weights
 

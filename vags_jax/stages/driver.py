@@ -31,6 +31,7 @@ from vags_jax.ggcnn import data as ggcnn_data
 from vags_jax.stages import checkpoint, interrupts, pipeline, progress, requests, run_lock, rundir, stage23
 from vags_jax.stages import ggcnn as ggcnn_stage
 from vags_jax.stages import vpg as vpg_stage
+from vags_jax.stages.data_parallel import DataParallelStage1
 from vags_jax.stages.stage1 import Stage1
 from vags_jax.stages.stage23 import VagsStage
 
@@ -61,9 +62,13 @@ class Programs:
         return self.get(self._cfg_key("env", cfg), lambda: VagsEnv(cfg))
 
     def stage(self, name: str, cfg):
-        """The built ``Stage1`` / ``VagsStage`` of ``name`` for ``cfg`` on this process's env."""
-        make = (lambda: Stage1(cfg, self.env(cfg))) if name == "stage1" else (
-            lambda: VagsStage(cfg, pipeline.which_stage(name), self.env(cfg)))
+        """The built ``Stage1`` / ``VagsStage`` of ``name`` for ``cfg`` on this process's env
+        (stage 1 over ``parallel.devices`` > 1 devices: ``DataParallelStage1``)."""
+        if name == "stage1":
+            make = (lambda: DataParallelStage1(cfg, self.env(cfg))) if cfg.parallel.devices > 1 else (
+                lambda: Stage1(cfg, self.env(cfg)))
+        else:
+            make = lambda: VagsStage(cfg, pipeline.which_stage(name), self.env(cfg))  # noqa: E731
         return self.get(self._cfg_key(name, cfg), make)
 
     def vpg(self, cfg) -> vpg_stage.VpgStage:
@@ -183,7 +188,7 @@ def report_end(args, data: dict, summaries: list, cfg, wall_s: float, finished: 
         json.dump(data, f, indent=2)
     os.replace(path + ".tmp", path)
     status = run_status(args.out, cfg)
-    lines = progress.closing_lines(summaries, args.out, status, wall_s, path, finished)
+    lines = progress.closing_lines(summaries, args.out, status, wall_s, path, finished, cfg.parallel.devices > 1)
     print("\n".join(lines), file=sys.stderr if args.json else sys.stdout, flush=True)
     if args.json:
         print(json.dumps(data), flush=True)
@@ -506,8 +511,12 @@ def _run_stage(cfg, args, name, done, h, deadline, programs, arrays, stop, board
     checkpoint.save_config(args.out, cfg)
     if name == "stage1":
         finite, loss_key, on_save = FINITE_METRICS, "loss", None
+        d = cfg.parallel.devices
+        k = st.n_worlds // d
+        where = (f"data parallel over {d} devices ({k} world{'s' if k > 1 else ''} each): "
+                 f"{jax.devices()[:d]}" if d > 1 else f"devices={jax.devices()}")
         log(f"training stage 1 (GDNet): {st.n_worlds} worlds, {st.iterations} iterations, impl={cfg.sim.impl}, "
-            f"trunk={cfg.net.trunk}, daes={cfg.exploration.daes}, devices={jax.devices()}")
+            f"trunk={cfg.net.trunk}, daes={cfg.exploration.daes}, {where}")
     else:
         finite, loss_key = stage23.FINITE_METRICS, "loss_vanet"
         on_save = lambda i, s: rundir.save_networks(args.out, name, i, s, cfg)  # noqa: E731
@@ -525,6 +534,8 @@ def _run_stage(cfg, args, name, done, h, deadline, programs, arrays, stop, board
     if end_of_segment(args, name, done, it, t0, status, compiles()):
         return 1, None
     summary = {"stage": name, "iterations": it, "grasp_attempts": grasps, "recent_success_rate": recent}
+    if cfg.parallel.devices > 1 and name == "stage1":
+        summary["devices"] = cfg.parallel.devices
     if name not in ("stage1", "nbv"):  # NBV's is +inf: it always moves
         summary["threshold"] = float(state.threshold)
     summary.update(wall_s=round(time.time() - t0, 1), out=out_dir)

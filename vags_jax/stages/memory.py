@@ -26,11 +26,13 @@ GIB = 2**30
 
 
 def stage_bytes(cfg, name: str) -> int:
-    """The lower bound (bytes) of stage ``name`` ("stage1" | "stage2" | "stage3") of ``cfg``."""
+    """The lower bound (bytes) of stage ``name`` ("stage1" | "stage2" | "stage3") of ``cfg``, on
+    each device (stage 1 over ``parallel.devices`` devices holds a share of worlds and replay)."""
     px, cam = cfg.workspace.heightmap_px, cfg.camera
-    n = getattr(cfg, name).n_worlds
+    d = cfg.parallel.devices if name == "stage1" else 1  # data parallel: one device's share
+    n = getattr(cfg, name).n_worlds // d
     copies = 1 if name == "stage1" else 2
-    replay = copies * cfg.replay.capacity * C.REPLAY_BYTES_PER_CELL * px * px
+    replay = copies * (cfg.replay.capacity // d) * C.REPLAY_BYTES_PER_CELL * px * px
     q_maps = copies * n * cfg.net.n_rotations * px * px * 4
     depth = n * cam.width * cam.height * 4
     return replay + q_maps + depth
@@ -58,8 +60,10 @@ def check_fits(cfg, names, have: Optional[int]) -> None:
         need = stage_bytes(cfg, name)
         if need > have:
             n = getattr(cfg, name).n_worlds
+            d = cfg.parallel.devices if name == "stage1" else 1
+            worlds = f"{n:,} worlds" if d == 1 else f"{n // d:,} worlds on each of {d} devices"
             raise ValueError(
-                f"{name}: {n:,} worlds need at least {need / GIB:,.1f} GiB of device memory (replay, Q maps "
+                f"{name}: {worlds} need at least {need / GIB:,.1f} GiB of device memory (replay, Q maps "
                 f"and depth images alone; docs/architecture.md, 'Memory'), more than the {have / GIB:,.1f} GiB "
                 f"of {jax.devices()[0].platform}; lower {name}.n_worlds or replay.capacity (or pass "
                 f"--no-memory-check to try anyway)")

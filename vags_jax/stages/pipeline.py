@@ -27,6 +27,7 @@ from vags_jax.env import VagsEnv
 from vags_jax.rl import dqn
 from vags_jax.stages import ggcnn as ggcnn_stage
 from vags_jax.stages import rundir
+from vags_jax.stages.data_parallel import DataParallelStage1
 from vags_jax.stages.stage1 import Stage1
 from vags_jax.stages.stage23 import VagsStage, final_threshold
 
@@ -87,7 +88,10 @@ def which_stage(name: str):
 def make_stage(cfg: Config, name: str, env: VagsEnv) -> StageFns:
     """Stage ``name`` built for ``cfg`` on ``env`` (its programs compile at the first ``run``)."""
     name = rundir.canonical(name)
-    program = Stage1(cfg, env) if name == "stage1" else VagsStage(cfg, which_stage(name), env)
+    if name == "stage1":  # over parallel.devices devices when more than one
+        program = DataParallelStage1(cfg, env) if cfg.parallel.devices > 1 else Stage1(cfg, env)
+    else:
+        program = VagsStage(cfg, which_stage(name), env)
     return stage_fns(name, program)
 
 

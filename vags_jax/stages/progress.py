@@ -84,10 +84,12 @@ def stage_line(s: dict) -> str:
     return f"  {name:7s} {duration(s['wall_s']):>12s}  {what}  -> {s['out']}"
 
 
-def next_commands(out: str, progress: dict, finished: bool) -> list:
-    """What to run next on run ``out``: ``progress`` {stage: "done/total"} of every stage it has."""
+def next_commands(out: str, progress: dict, finished: bool, data_parallel: bool = False) -> list:
+    """What to run next on run ``out``: ``progress`` {stage: "done/total"} of every stage it has;
+    ``data_parallel``: stage 1 trained over several devices, which stages 2-3 cannot follow yet."""
     if not finished:
-        return [f"python train.py --out {out} --resume      # continue where it stopped"]
+        return [f"python train.py --out {out} --resume --stage gdnet   # continue where it stopped"
+                if data_parallel else f"python train.py --out {out} --resume      # continue where it stopped"]
     counts = {n: [int(x) for x in p.split("/")] for n, p in progress.items()}
     done = {n for n, (have, want) in counts.items() if have > 0 and have >= want}
     cmds = []
@@ -95,22 +97,23 @@ def next_commands(out: str, progress: dict, finished: bool) -> list:
         cmds += [f"python eval.py --run {out}                   # VAGS on the benchmark (docs/benchmark.md)",
                  f"python eval.py --run {out} --no-viewpoint    # the same without VANet (ablation)"]
     elif "stage1" in done:
-        cmds += [f"python eval.py --run {out}                   # GDNet alone on the benchmark",
-                 f"python train.py --out {out} --stage stage2   # VANet next (then --stage stage3)"]
+        cmds += [f"python eval.py --run {out}                   # GDNet alone on the benchmark"]
+        if not data_parallel:
+            cmds.append(f"python train.py --out {out} --stage stage2   # VANet next (then --stage stage3)")
     if "ggcnn" in done:
         cmds.append(f"python eval.py --run {out} --policy ggcnn    # GG-CNN from the global view")
     return cmds
 
 
 def closing_lines(summaries: Iterable[dict], out: str, progress: dict, wall_s: float, summary_file: str,
-                  finished: bool) -> list:
+                  finished: bool, data_parallel: bool = False) -> list:
     """The human summary: one line per stage trained by this command, the run's progress, where
-    the JSON summary is, and the next commands."""
+    the JSON summary is, and the next commands (``next_commands``)."""
     lines = [f"trained in {duration(wall_s)}: {out}"]
     lines += [stage_line(s) for s in summaries]
     lines.append("  progress: " + ", ".join(f"{n} {p}" for n, p in progress.items()))
     lines.append(f"  summary (JSON): {summary_file}")
-    cmds = next_commands(out, progress, finished)
+    cmds = next_commands(out, progress, finished, data_parallel)
     if cmds:
         lines.append("next:")
         lines += [f"  {c}" for c in cmds]

@@ -19,6 +19,7 @@ from vags_jax import cli
 from vags_jax import config as C
 from vags_jax.ggcnn import data as ggcnn_data
 from vags_jax.nets import check_init, make_qnet
+from vags_jax.parallel import mesh as parallel_mesh
 from vags_jax.sim import scene
 from vags_jax.perception import render
 from vags_jax.stages import checkpoint, memory, run_lock, rundir, stage1
@@ -64,12 +65,56 @@ def check_run_writable(out: str) -> None:
 
 
 def check_machine(cfg, names, args) -> None:
-    """What this machine must offer the stages ``names``: the Warp renderer's GPU when the
-    config asks for it, and the memory lower bound of ``stages.memory`` (unless
-    --no-memory-check)."""
+    """What this machine must offer the stages ``names``: the devices of data-parallel
+    training (``parallel.devices``), the Warp renderer's GPU when the config asks for it, and
+    the memory lower bound of ``stages.memory`` (unless --no-memory-check)."""
+    if cfg.parallel.devices > 1:
+        parallel_mesh.resolve(cfg.parallel.devices)  # ValueError: more than JAX sees
     render.check_renderer(cfg.camera)
     if not args.no_memory_check:
         memory.check_fits(cfg, names, memory.device_bytes())
+
+
+def with_devices(args, overrides: dict, run_cfg=None) -> dict:
+    """``--devices N|all`` folded into the ``--set`` overrides as ``parallel.devices`` (data-
+    parallel stage 1).  ``run_cfg``: the config of a run to resume, whose device count cannot
+    change (its worlds and replay are split per device): a different ``--devices`` is refused."""
+    asked = getattr(args, "devices", None)
+    if asked is None:
+        return overrides
+    n = jax_device_count() if asked == "all" else asked
+    if run_cfg is not None:
+        have = run_cfg.parallel.devices
+        if n != have:
+            raise ValueError(f"{args.out} was trained on {have} device(s) (parallel.devices = {have} in its "
+                             f"config.json) and --devices asks for {n}: a run's worlds and replay are split per "
+                             f"device, so its device count cannot change; resume with --devices {have} (or "
+                             f"without --devices)")
+        return overrides
+    if overrides.get("parallel.devices", n) != n:
+        raise ValueError(f"--devices {asked} and --set parallel.devices={overrides['parallel.devices']} disagree; "
+                         f"give one of them")
+    return {**overrides, "parallel.devices": n}
+
+
+def jax_device_count() -> int:
+    """Devices JAX sees (every host's with --distributed): what ``--devices all`` means."""
+    return parallel_mesh.resolve("all")
+
+
+def check_single_device(cfg, what: str, run: str = "") -> None:
+    """Data-parallel training covers stage 1 only so far: ``what`` (the stages asked for)
+    refuses a config with ``parallel.devices`` > 1; ``run``: the run directory it comes from."""
+    d = cfg.parallel.devices
+    if d <= 1:
+        return
+    if run:
+        raise ValueError(f"{run} trains stage 1 data-parallel on {d} devices (parallel.devices = {d} in its "
+                         f"config.json), and {what} runs on one device only so far: continue its stage 1 with "
+                         f"--stage gdnet --resume; for stages 2 and 3 train a run on one device")
+    raise ValueError(f"{what} runs on one device only so far, and --devices / parallel.devices asks for {d}: "
+                     f"data-parallel training covers stage 1 alone (train.py --stage gdnet --devices {d}); "
+                     f"drop --devices to train the whole pipeline")
 
 
 def check_fresh_out(out: str) -> None:
@@ -108,7 +153,8 @@ def prepare_ggcnn(args) -> SimpleNamespace:
                          "the start (its labelled views are cached): drop --resume")
     given = [f for f, v in (("--checkpoint-every", args.checkpoint_every),
                             ("--checkpoint-minutes", getattr(args, "checkpoint_minutes", None)),
-                            ("--max-minutes", args.max_minutes)) if v is not None]
+                            ("--max-minutes", args.max_minutes), ("--devices", getattr(args, "devices", None)))
+             if v is not None]
     if given:
         raise ValueError(f"{' and '.join(given)} apply to --stage gdnet only; drop them for --stage ggcnn")
     overrides = C.parse_overrides(args.set)
@@ -156,6 +202,7 @@ def prepare_stage1(args) -> SimpleNamespace:
     overrides = C.parse_overrides(args.set)
     if not args.resume:
         check_fresh_out(args.out)
+        overrides = with_devices(args, overrides)
         cfg = C.replace(C.preset("tiny" if args.config is None else args.config), **overrides)
         scene.build_spec(cfg)  # the scene's own checks (shape names), in milliseconds
         check_trainable_gate(cfg)
@@ -172,7 +219,7 @@ def prepare_stage1(args) -> SimpleNamespace:
     if not os.path.isdir(args.out):
         raise ValueError(f"run directory {args.out!r} does not exist; drop --resume to start a new run there")
     run_cfg = checkpoint.load_config(args.out)
-    cfg = C.replace(run_cfg, **overrides)
+    cfg = C.replace(run_cfg, **with_devices(args, overrides, run_cfg))
     steps = checkpoint.checkpoint_steps(args.out)
     if not steps:
         raise ValueError(f"{args.out} has no checkpoint yet (the run stopped before its first one); "
@@ -266,7 +313,8 @@ def prepare_pipeline(args, only):
     fresh = only is None and not args.resume
     if fresh:
         check_fresh_out(args.out)
-        cfg = C.replace(C.preset("tiny" if args.config is None else args.config), **overrides)
+        cfg = C.replace(C.preset("tiny" if args.config is None else args.config), **with_devices(args, overrides))
+        check_single_device(cfg, "the whole pipeline (GG-CNN, stages 2 and 3)")
         scene.build_spec(cfg)  # the scene's own checks (an unknown shape), before anything is written
         check_trainable_gate(cfg)
         if rundir.needs_ggcnn(cfg):
@@ -293,7 +341,8 @@ def prepare_pipeline(args, only):
             f"train the stages before {only} first (python train.py --out {args.out} runs them all)")
         raise ValueError(f"run directory {args.out!r} does not exist; {hint}")
     run_cfg = checkpoint.load_config(args.out)
-    cfg = C.replace(run_cfg, **overrides)
+    cfg = C.replace(run_cfg, **with_devices(args, overrides, run_cfg))
+    check_single_device(cfg, "the pipeline (GG-CNN, stages 2 and 3)" if only is None else only, args.out)
     left = [n for n in (rundir.ORDER if only is None else (only,)) if rundir.progress(args.out, n) < rundir.total(cfg, n)]
     if left:  # a finished run is told "nothing to train" instead
         check_run_writable(args.out)
@@ -350,6 +399,9 @@ def prepare_vpg(args) -> SimpleNamespace:
     ``.done``: a message when nothing is left to train."""
     if args.data_dir is not None:
         raise ValueError("--data-dir is for GG-CNN (--stage ggcnn, or the whole pipeline); drop it for --stage vpg")
+    if getattr(args, "devices", None) is not None:
+        raise ValueError("--devices (data-parallel training) covers stage 1 only so far (--stage gdnet); drop it "
+                         "for --stage vpg")
     overrides = C.parse_overrides(args.set)
     _check_out_path(args.out)
     d = vpg_stage.vpg_dir(args.out)

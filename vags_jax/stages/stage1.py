@@ -31,6 +31,7 @@ from flax import struct
 
 from vags_jax.rl import dqn, exploration, replay
 from vags_jax.config import Config
+from vags_jax.parallel import collectives
 from vags_jax.env import EnvState, VagsEnv
 from vags_jax.nets import init_qnet, initial_variables, make_qnet
 
@@ -61,14 +62,26 @@ METRICS = (
 )
 
 
-class Stage1:
-    """GDNet training in batched worlds.  Build once per config; ``run`` is compiled per n."""
+# The parts of a Stage1State that are per device in data-parallel training (each device's worlds
+# and replay shard); the others (learner, key, counters) are replicated.
+PER_DEVICE = ("env", "replay")
 
-    def __init__(self, cfg: Config, env: Optional[VagsEnv] = None):
+
+class Stage1:
+    """GDNet training in batched worlds.  Build once per config; ``run`` is compiled per n.
+
+    ``axis_name`` (data parallel, ``vags_jax.stages.data_parallel``): this object is one
+    device's share, run under ``jax.shard_map``: ``cfg`` is the per-device config (its worlds,
+    replay capacity and batch), worlds draw from per-device key streams, gradients and BatchNorm
+    statistics are averaged over the axis and the metrics are totals / means over all devices.
+    None (one device): no collective at all."""
+
+    def __init__(self, cfg: Config, env: Optional[VagsEnv] = None, axis_name: Optional[str] = None):
         self.cfg = cfg
+        self.axis_name = axis_name
         self.env = env if env is not None else VagsEnv(cfg)
-        self.net = make_qnet(cfg.net, "gdnet")
-        self.update = dqn.make_update_step(self._apply, cfg.dqn, executed_rotation_only=True)
+        self.net = make_qnet(cfg.net, "gdnet", axis_name)
+        self.update = dqn.make_update_step(self._apply, cfg.dqn, executed_rotation_only=True, axis_name=axis_name)
         self._run_jit = jax.jit(self._run_impl, static_argnums=1)
 
     def _apply(self, variables, color, height, train, mutable=False, rotations=None):
@@ -78,22 +91,42 @@ class Stage1:
         s = self.cfg.stage1
         return jax.random.randint(key, (n_worlds,), s.min_objects, s.max_objects + 1, jnp.int32)
 
-    def init(self, key: jax.Array, learner: Optional[dqn.TrainState] = None) -> Stage1State:
-        """Fresh worlds, replay and (unless given) a freshly initialised GDNet learner."""
-        cfg = self.cfg
+    @staticmethod
+    def init_keys(key: jax.Array):
+        """A stage's key -> (k_net, k_n, k_env, k_loop), each (2,) raw uint32."""
         key = jnp.asarray(key)
         if jnp.issubdtype(key.dtype, jax.dtypes.prng_key):
             key = jax.random.key_data(key)
-        k_net, k_n, k_env, k_loop = jax.random.split(key, 4)
-        H = cfg.workspace.heightmap_px
-        if learner is None:
-            learner = dqn.create_train_state(initial_variables(k_net, self.net, cfg.net, H, H), cfg.dqn)
-        env_state = self.env.reset(k_env, np.asarray(self._n_objects(k_n, cfg.stage1.n_worlds)))
+        return tuple(jax.random.split(key, 4))
+
+    def new_learner(self, k_net: jax.Array) -> dqn.TrainState:
+        """A freshly initialised GDNet learner (``net.init`` weights when the config names them)."""
+        H = self.cfg.workspace.heightmap_px
+        return dqn.create_train_state(initial_variables(k_net, self.net, self.cfg.net, H, H), self.cfg.dqn)
+
+    def empty_replay(self, env_state: EnvState) -> replay.ReplayState:
+        """An empty replay of ``replay.capacity`` grasp transitions shaped as ``env_state``'s maps."""
         example = replay.make_grasp_transition(
             env_state.color[0], env_state.height[0], jnp.zeros((3,), jnp.int32), 0.0,
             env_state.color[0], env_state.height[0], False)
-        buffer = replay.init(cfg.replay.capacity, example)
-        return Stage1State(env=env_state, learner=learner, replay=buffer, key=k_loop,
+        return replay.init(self.cfg.replay.capacity, example)
+
+    def init_worlds(self, k_n: jax.Array, k_env: jax.Array):
+        """Pure and jittable (per device under ``jax.shard_map``): ``stage1.n_worlds`` new scenes
+        drawn from this device's streams of k_n / k_env (``collectives.device_key``) and an
+        empty replay -> (EnvState, ReplayState)."""
+        ax = self.axis_name
+        n_objects = self._n_objects(collectives.device_key(k_n, ax), self.cfg.stage1.n_worlds)
+        env_state = self.env.step_reset(collectives.device_key(k_env, ax), n_objects)
+        return env_state, self.empty_replay(env_state)
+
+    def init(self, key: jax.Array, learner: Optional[dqn.TrainState] = None) -> Stage1State:
+        """Fresh worlds, replay and (unless given) a freshly initialised GDNet learner."""
+        k_net, k_n, k_env, k_loop = self.init_keys(key)
+        if learner is None:
+            learner = self.new_learner(k_net)
+        env_state = self.env.reset(k_env, np.asarray(self._n_objects(k_n, self.cfg.stage1.n_worlds)))
+        return Stage1State(env=env_state, learner=learner, replay=self.empty_replay(env_state), key=k_loop,
                            iteration=jnp.zeros((), jnp.int32), attempts=jnp.zeros((), jnp.int32))
 
     # ------------------------------------------------------------------ one iteration
@@ -102,11 +135,14 @@ class Stage1:
         """updates_per_iteration DQN updates (skipped until replay holds learning_starts)."""
         s = self.cfg.stage1
         return dqn.learn_from_replay(self.update, learner, buffer, key, self.cfg, s.updates_per_iteration,
-                                     s.learning_starts)
+                                     s.learning_starts, self.axis_name)
 
     def _iteration(self, state: Stage1State, _):
         cfg, env = self.cfg, self.env
         key, k_act, k_grasp, k_n, k_reset, k_learn = jax.random.split(state.key, 6)
+        ax = self.axis_name  # None on one device: every collective below is the identity
+        k_act, k_grasp, k_n, k_reset, k_learn = (collectives.device_key(k, ax)
+                                                 for k in (k_act, k_grasp, k_n, k_reset, k_learn))
         s = state.env
         eps = exploration.epsilon(state.iteration, cfg.exploration)
         variables = {"params": state.learner.params, "batch_stats": state.learner.batch_stats}
@@ -129,26 +165,29 @@ class Stage1:
         buffer = replay.add(state.replay, transitions, mask=grasped)
         learner, buffer, (loss, td_abs), n_updates = self._learn(state.learner, buffer, k_learn)
 
-        n_grasped = grasped.sum()
+        # Metrics over all worlds: totals and means over the devices (each holds as many worlds).
+        total = lambda x: collectives.total(x, ax)  # noqa: E731
+        mean = lambda x: collectives.mean(x, ax)  # noqa: E731
+        n_grasped = total(grasped.sum())
         attempts = state.attempts + n_grasped
         metrics = {
-            "success_rate": reward.sum() / jnp.maximum(n_grasped, 1),
-            "explored": (explored & grasped).sum() / jnp.maximum(n_grasped, 1),
+            "success_rate": total(reward.sum()) / jnp.maximum(n_grasped, 1),
+            "explored": total((explored & grasped).sum()) / jnp.maximum(n_grasped, 1),
             "epsilon": jnp.asarray(eps, jnp.float32),
             "loss": loss,
             "td_abs": td_abs,
-            "q_max": q.reshape(q.shape[0], -1).max(axis=1).mean(),
-            "q_executed": q_exec.mean(),
-            "rounds_ended": (over & grasped).sum(),
-            "rounds_cleared": cleared.sum(),
-            "objects_on_table": env.n_remaining(s2).mean(),
-            "physics_errors": s2.sim.error.sum(),
-            "buffer_overflow": s2.sim.overflow.sum(),
-            "replay_size": buffer.size,
+            "q_max": mean(q.reshape(q.shape[0], -1).max(axis=1).mean()),
+            "q_executed": mean(q_exec.mean()),
+            "rounds_ended": total((over & grasped).sum()),
+            "rounds_cleared": total(cleared.sum()),
+            "objects_on_table": mean(env.n_remaining(s2).mean()),
+            "physics_errors": total(s2.sim.error.sum()),
+            "buffer_overflow": total(s2.sim.overflow.sum()),
+            "replay_size": total(buffer.size),
             "updates": n_updates,
             "attempts": n_grasped,
             "attempts_total": attempts,
-            "worlds_resetting": resetting.sum(),
+            "worlds_resetting": total(resetting.sum()),
         }
         metrics = {k: jnp.asarray(v, jnp.float32) for k, v in metrics.items()}
         new_state = Stage1State(env=s2, learner=learner, replay=buffer, key=key,
@@ -173,19 +212,24 @@ def checkpoint_layout(cfg: Config) -> dict:
     that follow from the config alone: ``learner``, ``replay``, ``key``, ``iteration`` and
     ``attempts`` (``env`` needs the simulator).  Traced with ``jax.eval_shape``: nothing is
     compiled or allocated, so a checkpoint can be checked against a config before any
-    compiling (train.py --resume)."""
+    compiling (train.py --resume).  With ``parallel.devices`` = N > 1 the replay is N shards,
+    stacked on a leading axis (``vags_jax.stages.data_parallel``)."""
     H = cfg.workspace.heightmap_px
     net = make_qnet(cfg.net, "gdnet")
     learner = jax.eval_shape(lambda k: dqn.create_train_state(init_qnet(k, net, H, H), cfg.dqn),
                              jax.random.PRNGKey(0))
+    d = cfg.parallel.devices  # data parallel: one replay shard per device, stacked
 
     def buffer():
         color, height = jnp.zeros((H, H, 3), jnp.uint8), jnp.zeros((H, H), jnp.float32)
         example = replay.make_grasp_transition(color, height, jnp.zeros((3,), jnp.int32), 0.0,
                                                color, height, False)
-        return replay.init(cfg.replay.capacity, example)
+        return replay.init(cfg.replay.capacity // d, example)
 
+    buffers = jax.eval_shape(buffer)
+    if d > 1:
+        buffers = jax.tree.map(lambda s: jax.ShapeDtypeStruct((d,) + s.shape, s.dtype), buffers)
     scalar = jax.ShapeDtypeStruct((), jnp.int32)
-    return {"learner": learner, "replay": jax.eval_shape(buffer),
+    return {"learner": learner, "replay": buffers,
             "key": jax.eval_shape(lambda: jax.random.split(jax.random.PRNGKey(0))[0]),
             "iteration": scalar, "attempts": scalar}

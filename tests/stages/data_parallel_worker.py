@@ -1,0 +1,119 @@
+"""Run by tests/stages/test_data_parallel.py in a subprocess whose JAX has 2 virtual CPU devices
+(``XLA_FLAGS=--xla_force_host_platform_device_count=2``, set before JAX starts): each check
+computes the same thing on one device and split over the 2-device mesh, and prints the
+largest differences as one JSON line for the test to judge.
+
+    python tests/stages/data_parallel_worker.py update | env
+"""
+import json
+import os
+import sys
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax.sharding import PartitionSpec as P
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+sys.path.insert(0, ROOT)
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+from conftest import TINY_TEST_OVERRIDES  # noqa: E402  (and the session's compile cache)
+from vags_jax import config as C  # noqa: E402
+from vags_jax.env import VagsEnv  # noqa: E402
+from vags_jax.nets import init_qnet, make_qnet  # noqa: E402
+from vags_jax.parallel.collectives import AXIS  # noqa: E402
+from vags_jax.parallel.mesh import make_mesh  # noqa: E402
+from vags_jax.rl import dqn, replay  # noqa: E402
+from vags_jax.stages import data_parallel  # noqa: E402
+
+
+def max_diff(a, b) -> float:
+    """Largest absolute difference over two pytrees of arrays of the same structure."""
+    return max(float(np.max(np.abs(np.asarray(x, np.float64) - np.asarray(y, np.float64))))
+               for x, y in zip(jax.tree.leaves(a), jax.tree.leaves(b)))
+
+
+def check_update() -> dict:
+    """One DQN update of GDNet (executed rotation only, BatchNorm in train mode) on a batch of
+    8: on one device, and with 4 samples on each of 2 devices (pmean'd gradients and BatchNorm
+    statistics)."""
+    # SGD: its step is proportional to the gradient, so a gradient of the wrong scale shows.
+    cfg = C.replace(C.tiny(), **{**TINY_TEST_OVERRIDES, "dqn.batch_size": 8, "dqn.target_update_period": 1,
+                                 "dqn.optimizer": "sgd", "dqn.learning_rate": 0.05})
+    H, R, b = cfg.workspace.heightmap_px, cfg.net.n_rotations, cfg.dqn.batch_size
+    ts = dqn.create_train_state(init_qnet(jax.random.PRNGKey(0), make_qnet(cfg.net, "gdnet"), H, H), cfg.dqn)
+    k = jax.random.split(jax.random.PRNGKey(1), 6)
+    batch = replay.make_grasp_transition(
+        jax.random.randint(k[0], (b, H, H, 3), 0, 256), jax.random.uniform(k[1], (b, H, H), maxval=0.08),
+        jnp.stack([jax.random.randint(k[2], (b,), 0, R), jax.random.randint(k[3], (b,), 0, H),
+                   jax.random.randint(k[4], (b,), 0, H)], 1),
+        (jnp.arange(b) % 2).astype(jnp.float32), jax.random.randint(k[5], (b, H, H, 3), 0, 256),
+        jax.random.uniform(k[1], (b, H, H), maxval=0.05), jnp.arange(b) % 3 == 0)
+    weights = jnp.linspace(0.5, 1.0, b)
+
+    def updater(axis):
+        net = make_qnet(cfg.net, "gdnet", axis)
+        apply = lambda v, c, h, t, mutable=False, rotations=None: net.apply(  # noqa: E731
+            v, c, h, t, rotations=rotations, mutable=mutable)
+        return dqn.make_update_step(apply, cfg.dqn, executed_rotation_only=True, axis_name=axis)
+
+    ts1, m1, td1 = jax.jit(updater(None))(ts, batch, weights)
+    mesh = make_mesh(2)
+    split = jax.jit(jax.shard_map(updater(AXIS), mesh=mesh, in_specs=(P(), P(AXIS), P(AXIS)),
+                                  out_specs=(P(), P(), P(AXIS)), check_vma=False))
+    ts2, m2, td2 = split(ts, batch, weights)
+    return {"params": max_diff(ts1.params, ts2.params),
+            "params_moved": max_diff(ts1.params, ts.params),
+            "batch_stats": max_diff(ts1.batch_stats, ts2.batch_stats),
+            "batch_stats_moved": max_diff(ts1.batch_stats, ts.batch_stats),
+            "opt_state": max_diff(ts1.opt_state, ts2.opt_state),
+            "target_params": max_diff(ts1.target_params, ts2.target_params),
+            "loss": abs(float(m1["loss"]) - float(m2["loss"])), "loss_value": float(m1["loss"]),
+            "grad_norm": abs(float(m1["grad_norm"]) - float(m2["grad_norm"])),
+            "td": max_diff(td1, td2)}
+
+
+def check_env() -> dict:
+    """One grasp step of 2 worlds (MJX impl "jax": physics, render, heightmaps, round
+    bookkeeping; no reset, no sensor noise) from the same start: unsharded, with one world on
+    each of 2 devices through the data-parallel stage's layout (a leading device axis,
+    ``data_parallel.stack`` / ``unstack`` under ``jax.shard_map``)."""
+    cfg = C.replace(C.tiny(), **{**TINY_TEST_OVERRIDES, "camera.noise.enabled": False})
+    env = VagsEnv(cfg)
+    H, B = cfg.workspace.heightmap_px, 2
+    state = env.reset(jax.random.PRNGKey(3), np.array([2, 1]))
+    flat = state.height.reshape(B, -1)
+    top = jnp.argmax(flat, axis=1)  # each world's highest cell: a grasp on an object
+    pixel = jnp.stack([top // H, top % H], 1).astype(jnp.int32)
+    rotation = jnp.array([0, 4], jnp.int32)
+    no_reset, n_objects = jnp.zeros((B,), bool), jnp.ones((B,), jnp.int32)
+    key = jax.random.PRNGKey(4)
+
+    def step(s, pixel, rotation, no_reset, n_objects):
+        return env.step_grasp_or_reset(s, pixel, rotation, no_reset, key, n_objects)
+
+    one_state, one_result = jax.jit(step)(state, pixel, rotation, no_reset, n_objects)
+
+    def local(s, pixel, rotation, no_reset, n_objects):
+        args = data_parallel.unstack((s, pixel, rotation, no_reset, n_objects))
+        return data_parallel.stack(step(*args))
+
+    per_device = lambda x: x.reshape((2, B // 2) + x.shape[1:])  # noqa: E731  (device, world, ...)
+    split = jax.jit(jax.shard_map(local, mesh=make_mesh(2), in_specs=P(AXIS), out_specs=P(AXIS), check_vma=False))
+    two_state, two_result = split(*jax.tree.map(per_device, (state, pixel, rotation, no_reset, n_objects)))
+    merge = lambda t: jax.tree.map(lambda x: x.reshape((B,) + x.shape[2:]), t)  # noqa: E731
+    two_state, two_result = merge(two_state), merge(two_result)
+    return {"success_one": np.asarray(one_result.success).tolist(),
+            "success_two": np.asarray(two_result.success).tolist(),
+            "qpos": max_diff(one_state.sim.data.qpos, two_state.sim.data.qpos),
+            "qpos_moved": max_diff(one_state.sim.data.qpos, state.sim.data.qpos),
+            "height": max_diff(one_state.height, two_state.height),
+            "color_cells": int(np.sum(np.asarray(one_state.color) != np.asarray(two_state.color))),
+            "attempts": max_diff(one_state.attempts, two_state.attempts),
+            "remaining": [np.asarray(env.n_remaining(x)).tolist() for x in (one_state, two_state)]}
+
+
+if __name__ == "__main__":
+    assert jax.device_count() == 2, f"needs 2 devices (XLA_FLAGS), JAX sees {jax.device_count()}"
+    print(json.dumps({"update": check_update, "env": check_env}[sys.argv[1]]()))
