@@ -173,3 +173,21 @@ def test_distributed_initialises_before_jax_starts(tmp_path):
     bare = subprocess.run(argv, cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
     lines = bare.stderr.strip().splitlines()
     assert bare.returncode == 2 and len(lines) == 1 and "jax.distributed.initialize() failed" in lines[0], lines
+
+
+def test_data_parallel_is_refused_on_gpus_until_the_compiler_crash_is_fixed(monkeypatch):
+    """On 2 H100s XLA's GPU compiler segfaulted compiling the data-parallel chunk (bench/RESULTS.md):
+    more than one GPU is refused with one line; one GPU, and CPU devices, are not."""
+    import types
+
+    from vags_jax.parallel import mesh
+
+    gpus = [types.SimpleNamespace(platform="gpu")] * 2
+    monkeypatch.setattr(mesh.jax, "devices", lambda *a: gpus)
+    monkeypatch.setattr(mesh.jax, "device_count", lambda *a: 2)
+    for asked in (2, "all"):
+        with pytest.raises(ValueError, match=r"refused on GPUs for now: XLA's GPU compiler crashed .* train on one GPU"):
+            mesh.resolve(asked)
+    assert mesh.resolve(1) == 1
+    monkeypatch.setattr(mesh.jax, "devices", lambda *a: [types.SimpleNamespace(platform="cpu")] * 2)
+    assert mesh.resolve(2) == 2 and mesh.resolve("all") == 2

@@ -42,6 +42,10 @@ def resolve(asked: Union[int, str]) -> int:
     """``--devices`` -> a device count: "all" is every device JAX sees (every host's with
     ``--distributed``); a number must not exceed them (ValueError saying what there is)."""
     have = jax.device_count()
+    if jax.devices()[0].platform == "gpu" and (asked == "all" and have > 1 or asked != "all" and asked > 1):
+        raise ValueError(f"--devices {asked}: data-parallel training is refused on GPUs for now: XLA's GPU compiler "
+                         f"crashed (segmentation fault) compiling its chunk on 2 H100s (jax 0.11.2; "
+                         f"bench/RESULTS.md, 'Data-parallel stage 1 on two H100s'); train on one GPU")
     if asked == "all":
         return have
     if asked > have:
