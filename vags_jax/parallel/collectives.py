@@ -1,6 +1,6 @@
 """Collectives over the data-parallel mesh axis that are the identity on one device.
 
-Code that runs per device under ``jax.shard_map`` (``vags_jax.parallel.sharded``) calls these with
+Code that runs per device under ``jax.shard_map`` (``vags_jax.stages.data_parallel``) calls these with
 ``axis`` = the mesh axis name; the same code on one device passes ``axis=None`` and gets its
 inputs back unchanged, so the one-device program is exactly what it was before data
 parallelism (no collective, no extra operation).

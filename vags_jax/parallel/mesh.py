@@ -3,7 +3,7 @@ over them, and ``jax.distributed`` for a run over several hosts (``--distributed
 
 Several hosts: ``initialize_distributed`` must run before JAX touches a device; afterwards
 ``jax.devices()`` lists every host's devices and the mesh spans them.  That path is written
-for it but has not been run on more than one host (README, "Several GPUs").
+for it but has not been run on more than one host (README, "Several devices").
 """
 from __future__ import annotations
 
@@ -41,18 +41,16 @@ def initialize_distributed() -> None:
 def resolve(asked: Union[int, str]) -> int:
     """``--devices`` -> a device count: "all" is every device JAX sees (every host's with
     ``--distributed``); a number must not exceed them (ValueError saying what there is)."""
-    have = jax.device_count()
-    if jax.devices()[0].platform == "gpu" and (asked == "all" and have > 1 or asked != "all" and asked > 1):
+    have, platform = jax.device_count(), jax.devices()[0].platform
+    n = have if asked == "all" else int(asked)
+    if n > have:
+        raise ValueError(f"--devices {asked} asks for more devices than the {have} {platform} device(s) JAX sees "
+                         f"here; pass --devices {have} (or all), or fewer")
+    if platform == "gpu" and n > 1:
         raise ValueError(f"--devices {asked}: data-parallel training is refused on GPUs for now: XLA's GPU compiler "
                          f"crashed (segmentation fault) compiling its chunk on 2 H100s (jax 0.11.2; "
                          f"bench/RESULTS.md, 'Data-parallel stage 1 on two H100s'); train on one GPU")
-    if asked == "all":
-        return have
-    if asked > have:
-        platform = jax.devices()[0].platform
-        raise ValueError(f"--devices {asked} asks for more devices than the {have} {platform} device(s) JAX sees "
-                         f"here; pass --devices {have} (or all), or fewer")
-    return int(asked)
+    return n
 
 
 def make_mesh(n: int) -> Mesh:

@@ -76,8 +76,8 @@ def fit(p, s_d, t_d, s_m, t_m, n_bins: int) -> GateTable:
     used = np.unique(np.searchsorted(edges, p, side="right"))
     edges = edges[used[1:] - 1]  # the lower edge of every non-empty bin but the first
     k = np.searchsorted(edges, p, side="right")
-    per = lambda x: np.array([np.mean(np.asarray(x, np.float64)[k == i]) for i in range(edges.size + 1)])  # noqa: E731
-    n = np.bincount(k, minlength=edges.size + 1)
+    n = np.bincount(k, minlength=edges.size + 1)  # every bin holds at least one state
+    per = lambda x: np.bincount(k, weights=np.asarray(x, np.float64), minlength=n.size) / n  # noqa: E731
     sd, td, sm, tm = per(s_d), per(t_d), per(s_m), per(t_m)
     rate, _ = best_rate(n, sd, td, sm, tm)
     f = lambda x: tuple(float(v) for v in x)  # noqa: E731
