@@ -18,6 +18,7 @@ into --out/nbv) and vpg (the VPG baseline: RUN/vpg/ holds its config.json, check
 metrics.jsonl; --resume continues it, and only vpg.iterations may change).
 Writes into --out: config.json; stage 1's metrics.jsonl and checkpoints/ (orbax); ggcnn/
 (checkpoints/, config.json, metrics.json); stage2/ and stage3/ (checkpoints/, metrics.jsonl);
+gate.json (the "rate" gate's table, measured after stage 3: gate_table in the config, worlds=0 skips it);
 timings.jsonl (wall-clock of every stage segment); summary.json (the closing summary, printed as
 the last stdout line with --json).  Every metrics row names its stage.
 The pipeline trains GG-CNN only when the close-view planner uses it (vags.local_planner=ggcnn)

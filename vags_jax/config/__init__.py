@@ -2,7 +2,7 @@
 
 * ``sections``: one dataclass per concern (``Workspace``, ``Scene``, ``Sim``, ``Grasp``,
   ``Camera``, ``Net``, ``DQN``, ``Replay``, ``Exploration``, ``Stage``, ``Vags``, GG-CNN's,
-  ``Benchmark``, the baselines' ``Mvp``, ``Vpg`` and ``Push``, data-parallel ``Parallel``) and
+  ``Benchmark``, the baselines' ``Mvp``, ``Vpg`` and ``Push``, data-parallel ``Parallel``, the rate gate's ``GateTable``) and
   the whole ``Config``; the conventions every module shares (frames,
   heightmap axes, rotations) are stated at its top.
 * ``validation``: type checks driven by the field annotations (``@checked``).
@@ -20,5 +20,5 @@ from vags_jax.config.sections import (MAX_HEIGHTMAP_PX, MAX_IMAGE_SIDE, MAX_WORL
                                       DQN, Replay, Exploration, Stage, VAGS_LOCAL_PLANNERS,
                                       VAGS_GATES, VAGS_VIEW_REWARDS, VAGS_VIEW_ESTIMATES, VAGS_VIEWPOINTS, Vags, GGCNN_SIZE_MULTIPLE,
                                       GGCNN_ROTATIONS, GGCNN_LABELS, GGCNNConfig, GGCNNData,
-                                      Benchmark, Mvp, Push, Vpg, Parallel, Config, benchmark_groups, check_vpg_fits,
+                                      Benchmark, Mvp, Push, Vpg, Parallel, GateTable, Config, benchmark_groups, check_vpg_fits,
                                       ggcnn_object_range)

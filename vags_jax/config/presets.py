@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from vags_jax.config.overrides import replace
-from vags_jax.config.sections import (DQN, EDGE_SCENES, Camera, Config, Exploration, GGCNNConfig, GGCNNData, Grasp,
+from vags_jax.config.sections import (DQN, EDGE_SCENES, Camera, Config, Exploration, GateTable, GGCNNConfig, GGCNNData, Grasp,
                                       Net, Replay, Scene, Sim, Stage, Vpg, Workspace, object_pool)
 
 
@@ -31,6 +31,7 @@ def tiny() -> Config:
         ggcnn_data=GGCNNData(views=16, heldout_views=8, candidates=8, scenes_per_batch=4),
         # VPG's change threshold scaled to the 32 x 32 heightmap: 300 of 224 x 224 cells ~ 6 of 32 x 32.
         vpg=Vpg(n_worlds=4, iterations=20, min_objects=1, max_objects=3, learning_starts=8, change_cells=6),
+        gate_table=GateTable(worlds=4, steps=2, bins=2),
     )
 
 

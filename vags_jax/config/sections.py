@@ -661,8 +661,9 @@ class Vags:
       exceeds the success net's estimate of GDNet's direct grasp by more than ``move_cost``
       (both nets are trained with gamma 0 on 0/1 rewards, so both estimate a probability);
       "q": move when GDNet's largest Q is at most the threshold (the paper's rule); "rate": move
-      where a move raises the picks per hour, by a table measured on the trained run
-      (``python -m vags_jax.stages.gate_measure --run RUN``; evaluation and predict only).
+      where a move raises the picks per hour, by a table measured on the trained run (by
+      train.py after stage 3, ``gate_table``; or ``python -m vags_jax.stages.gate_measure --run
+      RUN``; evaluation and predict only).
     threshold / threshold_quantile: the "q" gate's threshold; None calibrates it (the quantile
       of the frozen GDNet's largest Q over stage 2's first views), and again at stage 3's end
       over its last views (GDNet changed).  Stage 2 always gates with "q" (VANet and the
@@ -985,6 +986,27 @@ class Benchmark:
 
 @dataclass(frozen=True)
 @checked
+class GateTable:
+    """The "rate" gate's table (``vags.gate="rate"``; ``vags_jax.stages.gate_measure``), measured
+    by ``train.py`` at the end of the pipeline into RUN/gate.json: ``worlds`` fresh piles of
+    stage 3's object counts, ``steps`` direct attempts each (every state runs both branches),
+    ``bins`` quantile bins of the success net's p_direct, piles drawn from ``seed``.
+    ``worlds=0``: the pipeline measures no table (``python -m vags_jax.stages.gate_measure``
+    can later)."""
+
+    worlds: int = 256
+    steps: int = 4
+    bins: int = 8
+    seed: int = 0
+
+    def __post_init__(self):
+        _within("GateTable.worlds", self.worlds, 0, 1 << 20)
+        _within("GateTable.steps", self.steps, 1, 1000)
+        _within("GateTable.bins", self.bins, 1, 1000)
+
+
+@dataclass(frozen=True)
+@checked
 class Parallel:
     """Data-parallel training over local devices (``train.py --devices``;
     ``vags_jax.stages.data_parallel``): stage 1's worlds, replay and batch are split evenly over
@@ -1027,6 +1049,7 @@ class Config:
     vpg: Vpg = field(default_factory=Vpg)
     push: Push = field(default_factory=Push)
     parallel: Parallel = field(default_factory=Parallel)
+    gate_table: GateTable = field(default_factory=GateTable)
 
     def __post_init__(self):
         N = self.scene.max_objects

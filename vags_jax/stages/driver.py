@@ -28,7 +28,8 @@ from vags_jax.compile_cache import CompileClock
 from vags_jax import config as C
 from vags_jax.env import VagsEnv
 from vags_jax.ggcnn import data as ggcnn_data
-from vags_jax.stages import checkpoint, interrupts, pipeline, progress, requests, run_lock, rundir, stage23
+from vags_jax.policies import rate_gate
+from vags_jax.stages import checkpoint, gate_measure, interrupts, pipeline, progress, requests, run_lock, rundir, stage23
 from vags_jax.stages import ggcnn as ggcnn_stage
 from vags_jax.stages import vpg as vpg_stage
 from vags_jax.stages.data_parallel import DataParallelStage1
@@ -54,12 +55,12 @@ class Programs:
             self._built[key] = make()
         return self._built[key]
 
-    def _cfg_key(self, kind: str, cfg):
+    def cfg_key(self, kind: str, cfg):
         return kind, C.replace(cfg, **{f"stage{n}.iterations": 1 for n in (1, 2, 3)},
                                **{"nbv.iterations": 1, "vpg.iterations": 1})
 
     def env(self, cfg) -> VagsEnv:
-        return self.get(self._cfg_key("env", cfg), lambda: VagsEnv(cfg))
+        return self.get(self.cfg_key("env", cfg), lambda: VagsEnv(cfg))
 
     def stage(self, name: str, cfg):
         """The built ``Stage1`` / ``VagsStage`` of ``name`` for ``cfg`` on this process's env
@@ -69,11 +70,11 @@ class Programs:
                 lambda: Stage1(cfg, self.env(cfg)))
         else:
             make = lambda: VagsStage(cfg, pipeline.which_stage(name), self.env(cfg))  # noqa: E731
-        return self.get(self._cfg_key(name, cfg), make)
+        return self.get(self.cfg_key(name, cfg), make)
 
     def vpg(self, cfg) -> vpg_stage.VpgStage:
         """VPG's built stage for ``cfg`` on this process's env."""
-        return self.get(self._cfg_key("vpg", cfg), lambda: vpg_stage.VpgStage(cfg, self.env(cfg)))
+        return self.get(self.cfg_key("vpg", cfg), lambda: vpg_stage.VpgStage(cfg, self.env(cfg)))
 
     def data_maker(self, cfg) -> ggcnn_data.DataMaker:
         """GG-CNN's data programs, shared by configs with the same ``program_key``."""
@@ -188,7 +189,8 @@ def report_end(args, data: dict, summaries: list, cfg, wall_s: float, finished: 
         json.dump(data, f, indent=2)
     os.replace(path + ".tmp", path)
     status = run_status(args.out, cfg)
-    lines = progress.closing_lines(summaries, args.out, status, wall_s, path, finished, cfg.parallel.devices > 1)
+    lines = progress.closing_lines(summaries, args.out, status, wall_s, path, finished, cfg.parallel.devices > 1,
+                                   os.path.isfile(os.path.join(args.out, rate_gate.GATE_FILE)))
     print("\n".join(lines), file=sys.stderr if args.json else sys.stdout, flush=True)
     if args.json:
         print(json.dumps(data), flush=True)
@@ -594,7 +596,8 @@ def main_pipeline(args, only, programs: Programs, stop, board) -> int:
     except ValueError as e:
         return fail(e)
     names = rundir.ORDER if only is None else (only,)
-    if not plan.fresh and all(rundir.progress(args.out, n) >= rundir.total(plan.cfg, n) for n in names):
+    if (not plan.fresh and all(rundir.progress(args.out, n) >= rundir.total(plan.cfg, n) for n in names)
+            and not (only in (None, "stage3") and gate_measure.due(args.out, plan.cfg))):
         status = run_status(args.out, plan.cfg, only)
         log(f"{args.out} is already trained ({', '.join(f'{n} {p}' for n, p in status.items())}): nothing to "
             f"train; evaluate it with python eval.py --run {args.out}, or raise STAGE.iterations with --resume "
@@ -648,10 +651,34 @@ def _pipeline_locked(args, only, plan, programs: Programs, stop, board) -> int:
         summaries.append(summary)
         if summary.get("iterations", want) < want:  # stopped by --max-minutes
             break
+    if only in (None, "stage3") and gate_measure.due(args.out, cfg):
+        if deadline is not None and time.time() > deadline:
+            print(f"stopped after {args.max_minutes} min before the rate gate's table; --resume measures it",
+                  file=sys.stderr)
+        else:
+            summaries.append(measure_gate(args, cfg, programs))
     report_end(args, {"stages": summaries, "progress": run_status(args.out, cfg, only),
                       "wall_s": round(time.time() - t0, 1), "out": args.out}, summaries, cfg, time.time() - t0,
                all(rundir.progress(args.out, n) >= rundir.total(cfg, n) for n in names))
     return 0
+
+
+def measure_gate(args, cfg, programs: Programs) -> dict:
+    """The "rate" gate's table of the trained run (``stages.gate_measure``) into RUN/gate.json,
+    after stage 3 -> its closing-summary entry."""
+    ts = time.time()
+    log(f"rate gate: measuring its table ({cfg.gate_table.worlds} piles x {cfg.gate_table.steps} attempts, "
+        f"both branches from every state; its programs compile first) ...")
+    with CompileClock() as clock:
+        path = gate_measure.measure_into(args.out, log=(lambda m: None) if args.quiet else log, programs=programs)
+    wall = time.time() - ts
+    log(f"rate gate: table measured in {progress.duration(wall)} ({progress.duration(clock.seconds)} of it "
+        f"compiling) -> {path}")
+    log_timing(args.out, "gate", 0, 1, wall, "done", clock.as_dict())
+    with open(path) as f:
+        t = json.load(f)
+    return {"stage": "gate", "wall_s": round(wall, 1), "live_states": t["live_states"], "bins": len(t["states"]),
+            "moving_bins": sum(v > 0 for v in t["move_value"]), "rate": t["rate"], "out": path}
 
 
 def train(args, programs: Optional[Programs] = None) -> int:

@@ -30,7 +30,7 @@ import numpy as np
 
 from vags_jax.benchmark.metrics import MotionTimeModel
 from vags_jax.benchmark.protocol import return_distance
-from vags_jax.config import replace
+from vags_jax.config import GateTable, replace
 from vags_jax.env import VagsEnv
 from vags_jax.policies import rate_gate
 from vags_jax.policies.catalog import vags_params
@@ -77,14 +77,36 @@ def seconds(rows: dict, name: str, time_model: MotionTimeModel) -> np.ndarray:
                                     rows[f"{name}_travel"], rows[f"{name}_back"])
 
 
-def measure(run_dir: str, worlds: int, steps: int, bins: int, seed: int, log=print):
-    """The gate table of a trained run (stage 3's networks, else stage 2's) -> (GateTable, meta)."""
-    cfg = replace(checkpoint.load_config(run_dir), **{"vags.gate": "success", "vags.view_estimate": "vanet"})
+def measure_config(run_cfg):
+    """The config the table is measured under: the run's, with the gate's inputs as the "success"
+    gate reads them (the raw success net and VANet's viewpoint)."""
+    return replace(run_cfg, **{"vags.gate": "success", "vags.view_estimate": "vanet"})
+
+
+def due(run_dir: str, cfg) -> bool:
+    """train.py's pipeline measures the table now: ``gate_table.worlds`` > 0, stage 3 finished,
+    and RUN/gate.json missing or measured on other networks."""
+    if cfg.gate_table.worlds == 0 or rundir.progress(run_dir, "stage3") < rundir.total(cfg, "stage3"):
+        return False
+    steps = checkpoint.checkpoint_steps(rundir.networks_dir(run_dir, "stage3"))
+    return bool(steps) and rate_gate.load(run_dir, f"stage3 step {max(steps)}") is None
+
+
+def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=print, programs=None):
+    """The gate table of a trained run (stage 3's networks, else stage 2's) -> (GateTable, meta).
+    worlds / steps / bins / seed default to the run's ``gate_table`` config; programs: a
+    ``driver.Programs`` whose compiled collect step is reused (train.py's pipeline)."""
+    run_cfg = checkpoint.load_config(run_dir)
+    g = run_cfg.gate_table
+    worlds, steps = worlds or g.worlds or GateTable().worlds, steps or g.steps
+    bins, seed = bins or g.bins, g.seed if seed is None else seed
+    cfg = measure_config(run_cfg)
     networks = rundir.load_vags(run_dir, cfg)
     params = vags_params(networks, cfg)  # ValueError without a success net
     stage = cfg.stage3
-    env, nets = VagsEnv(cfg), VagsNets(cfg)
-    step = make_collect(cfg, env, nets)
+    env = VagsEnv(cfg) if programs is None else programs.env(cfg)
+    make = lambda: make_collect(cfg, env, VagsNets(cfg))  # noqa: E731
+    step = make() if programs is None else programs.get(programs.cfg_key("gate_collect", cfg), make)
     key = jax.random.PRNGKey(seed)
     k_n, k_reset, key = jax.random.split(key, 3)
     n_obj = jax.random.randint(k_n, (worlds,), stage.min_objects, stage.max_objects + 1)
@@ -110,16 +132,26 @@ def measure(run_dir: str, worlds: int, steps: int, bins: int, seed: int, log=pri
     return table, meta
 
 
+def measure_into(run_dir: str, log=print, programs=None, **kw) -> str:
+    """``measure`` then ``rate_gate.save`` into RUN/gate.json -> its path; logs the table."""
+    table, meta = measure(run_dir, log=log, programs=programs, **kw)
+    for line in rate_gate.describe(table).splitlines():
+        log(line)
+    return rate_gate.save(run_dir, table, meta)
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog=PROG, description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--run", required=True, help="a train.py run with stage 2 or 3 networks")
-    p.add_argument("--worlds", type=int, default=256, help="fresh piles (default 256)")
-    p.add_argument("--steps", type=int, default=4, help="direct attempts per pile, each state measured (default 4)")
-    p.add_argument("--bins", type=int, default=8, help="quantile bins of p_direct (default 8)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--worlds", type=int, default=None, help="fresh piles (default: the run's gate_table.worlds, "
+                   "or 256 where that is 0)")
+    p.add_argument("--steps", type=int, default=None, help="direct attempts per pile, each state measured "
+                   "(default: the run's gate_table.steps)")
+    p.add_argument("--bins", type=int, default=None, help="quantile bins of p_direct (default: gate_table.bins)")
+    p.add_argument("--seed", type=int, default=None, help="(default: gate_table.seed)")
     args = p.parse_args(argv)
     for name in ("worlds", "steps", "bins"):
-        if getattr(args, name) < 1:
+        if getattr(args, name) is not None and getattr(args, name) < 1:
             print(f"{PROG}: --{name} must be at least 1, got {getattr(args, name)}", file=sys.stderr)
             return 2
     try:

@@ -72,7 +72,9 @@ def eta(left: int, run_seconds: float, run_iterations: int) -> Optional[float]:
 
 def stage_line(s: dict) -> str:
     name = s["stage"]
-    if name == "ggcnn":
+    if name == "gate":  # the "rate" gate's table (stages.gate_measure)
+        what = f"{s['live_states']} states measured, moves in {s['moving_bins']} of {s['bins']} bins of p_direct"
+    elif name == "ggcnn":
         ok = s.get("ggcnn_success")
         what = f"{s['steps']} updates, held-out grasp success " + ("-" if ok is None else f"{100 * ok:.1f} %")
     else:
@@ -84,9 +86,11 @@ def stage_line(s: dict) -> str:
     return f"  {name:7s} {duration(s['wall_s']):>12s}  {what}  -> {s['out']}"
 
 
-def next_commands(out: str, progress: dict, finished: bool, data_parallel: bool = False) -> list:
+def next_commands(out: str, progress: dict, finished: bool, data_parallel: bool = False,
+                  gate_table: bool = False) -> list:
     """What to run next on run ``out``: ``progress`` {stage: "done/total"} of every stage it has;
-    ``data_parallel``: stage 1 trained over several devices, which stages 2-3 cannot follow yet."""
+    ``data_parallel``: stage 1 trained over several devices, which stages 2-3 cannot follow yet;
+    ``gate_table``: the run has the "rate" gate's table."""
     if not finished:
         return [f"python train.py --out {out} --resume --stage gdnet   # continue where it stopped"
                 if data_parallel else f"python train.py --out {out} --resume      # continue where it stopped"]
@@ -96,6 +100,8 @@ def next_commands(out: str, progress: dict, finished: bool, data_parallel: bool 
     if {"stage2", "stage3"} & done:
         cmds += [f"python eval.py --run {out}                   # VAGS on the benchmark (docs/benchmark.md)",
                  f"python eval.py --run {out} --no-viewpoint    # the same without VANet (ablation)"]
+        if gate_table:
+            cmds.append(f"python eval.py --run {out} --set vags.gate=rate   # VAGS with the measured rate gate")
     elif "stage1" in done:
         cmds += [f"python eval.py --run {out}                   # GDNet alone on the benchmark"]
         if not data_parallel:
@@ -106,14 +112,14 @@ def next_commands(out: str, progress: dict, finished: bool, data_parallel: bool 
 
 
 def closing_lines(summaries: Iterable[dict], out: str, progress: dict, wall_s: float, summary_file: str,
-                  finished: bool, data_parallel: bool = False) -> list:
+                  finished: bool, data_parallel: bool = False, gate_table: bool = False) -> list:
     """The human summary: one line per stage trained by this command, the run's progress, where
     the JSON summary is, and the next commands (``next_commands``)."""
     lines = [f"trained in {duration(wall_s)}: {out}"]
     lines += [stage_line(s) for s in summaries]
     lines.append("  progress: " + ", ".join(f"{n} {p}" for n, p in progress.items()))
     lines.append(f"  summary (JSON): {summary_file}")
-    cmds = next_commands(out, progress, finished, data_parallel)
+    cmds = next_commands(out, progress, finished, data_parallel, gate_table)
     if cmds:
         lines.append("next:")
         lines += [f"  {c}" for c in cmds]
