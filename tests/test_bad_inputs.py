@@ -297,8 +297,10 @@ TRAIN_FLAG_CASES = [
     (["--tensorboard", ""], r"--tensorboard must not be empty"),
     (["--set", "camera.renderer=warp"], r"camera\.renderer=warp needs (an NVIDIA GPU, but JAX runs on cpu|warp-lang)"),
     (["--stage", "ggcnn", "--set", "camera.renderer=warp"], r"camera\.renderer=warp needs"),
-    (["--set", "vags.gate=rate"], r"vags\.gate=rate is measured on a trained run, not trained with: .*gate_measure"),
-    (["--stage", "gdnet", "--set", "vags.gate=rate"], r"vags\.gate=rate is measured on a trained run"),
+    (["--set", "vags.gate=rate", "gate_table.worlds=0"], r"vags\.gate=rate needs the table train\.py measures after "
+     r"stage 3, but gate_table\.worlds=0 skips it: set gate_table\.worlds to at least 1"),
+    (["--stage", "gdnet", "--set", "vags.gate=rate", "gate_table.worlds=0"], r"vags\.gate=rate needs the table"),
+    (["--set", "gate_table.steps=0"], r"gate_table\.steps must be in \[1, 1,000\], got 0"),
 ]
 
 

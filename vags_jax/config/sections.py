@@ -663,7 +663,7 @@ class Vags:
       "q": move when GDNet's largest Q is at most the threshold (the paper's rule); "rate": move
       where a move raises the picks per hour, by a table measured on the trained run (by
       train.py after stage 3, ``gate_table``; or ``python -m vags_jax.stages.gate_measure --run
-      RUN``; evaluation and predict only).
+      RUN``); stage 3 of such a run trains with "success".  The ``gpu`` presets' default.
     threshold / threshold_quantile: the "q" gate's threshold; None calibrates it (the quantile
       of the frozen GDNet's largest Q over stage 2's first views), and again at stage 3's end
       over its last views (GDNet changed).  Stage 2 always gates with "q" (VANet and the

@@ -190,7 +190,7 @@ def report_end(args, data: dict, summaries: list, cfg, wall_s: float, finished: 
     os.replace(path + ".tmp", path)
     status = run_status(args.out, cfg)
     lines = progress.closing_lines(summaries, args.out, status, wall_s, path, finished, cfg.parallel.devices > 1,
-                                   os.path.isfile(os.path.join(args.out, rate_gate.GATE_FILE)))
+                                   cfg.vags.gate != "rate" and os.path.isfile(os.path.join(args.out, rate_gate.GATE_FILE)))
     print("\n".join(lines), file=sys.stderr if args.json else sys.stdout, flush=True)
     if args.json:
         print(json.dumps(data), flush=True)

@@ -187,11 +187,12 @@ def check_data_dir(data_dir) -> str:
 
 
 def check_trainable_gate(cfg) -> None:
-    """The "rate" gate is measured on a trained run (``stages.gate_measure``), not trained with."""
-    if cfg.vags.gate == "rate":
-        raise ValueError("vags.gate=rate is measured on a trained run, not trained with: train with "
-                         "vags.gate=success, then python -m vags_jax.stages.gate_measure --run RUN and "
-                         "eval.py --run RUN --set vags.gate=rate")
+    """A "rate" gate needs the table train.py measures after stage 3 (stage 3 itself decides
+    with the "success" gate: ``stage23.training_config``)."""
+    if cfg.vags.gate == "rate" and cfg.gate_table.worlds == 0:
+        raise ValueError("vags.gate=rate needs the table train.py measures after stage 3, but gate_table.worlds=0 "
+                         "skips it: set gate_table.worlds to at least 1 (default 256), or train with "
+                         "vags.gate=success")
 
 
 def prepare_stage1(args) -> SimpleNamespace:

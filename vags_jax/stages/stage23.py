@@ -7,7 +7,7 @@ objects.  One *iteration* is, for every world at once:
      most the threshold (``vags.threshold``, or the value calibrated at stage 2's start);
      stage 3 uses ``vags.gate`` ("success": the success net's estimate of the direct grasp
      against the expected success of the grasp after a move, ``vags.view_estimate``, less
-     ``vags.move_cost``);
+     ``vags.move_cost``; a "rate" run trains with "success": ``training_config``);
   2. DAES (``vags_jax.rl.exploration``) picks the viewpoint among object pixels with probability
      epsilon (VANet's argmax otherwise); in stage 3 it also explores GDNet's direct grasps
      (stage 2 grasps directly at GDNet's argmax: GDNet is frozen);
@@ -51,7 +51,7 @@ from flax import struct
 
 from vags_jax import batching
 from vags_jax.rl import dqn, exploration, replay
-from vags_jax.config import Config, Stage, Vags
+from vags_jax.config import Config, Stage, Vags, replace
 from vags_jax.policies.decision import (Decision, gate_score, gate_threshold, greedy, initial_calibration, plan_attempt,
                                         update_calibration, value_at)
 from vags_jax.env import EnvState, VagsEnv
@@ -142,7 +142,7 @@ class VagsStage:
         if which not in (2, 3, "nbv"):
             raise ValueError(f"VagsStage: which must be 2, 3 or 'nbv', got {which!r}")
         self.nbv = which == "nbv"
-        self.cfg, self.which = cfg, 2 if self.nbv else which
+        self.cfg, self.which = training_config(cfg), 2 if self.nbv else which
         self.stage: Stage = _nbv_stage(cfg) if self.nbv else (cfg.stage2 if which == 2 else cfg.stage3)
         self.view_net_cfg = nbv_net(cfg.net) if self.nbv else cfg.net
         self.env = env if env is not None else VagsEnv(cfg)
@@ -367,6 +367,13 @@ class VagsStage:
         return self._run_jit(_distinct_buffers(state), n)
 
 
+def training_config(cfg: Config) -> Config:
+    """The config stages 2-3 decide under: a run whose gate is "rate" trains stage 3 with the
+    "success" gate, since the rate gate's table is measured on the trained networks
+    (``stages.gate_measure``, after stage 3)."""
+    return replace(cfg, **{"vags.gate": "success"}) if cfg.vags.gate == "rate" else cfg
+
+
 def final_threshold(state: VagsTrainState, vcfg: Vags) -> jax.Array:
     """The "q" gate's threshold to keep after a stage that changed GDNet: ``vags.threshold`` when
     set, else the ``threshold_quantile`` quantile of GDNet's largest Q over the stage's last
@@ -388,4 +395,4 @@ def _distinct_buffers(tree):
 
 
 __all__ = ["VagsTrainState", "VagsStage", "METRICS", "FINITE_METRICS", "view_reward", "calibrated_threshold",
-           "final_threshold"]
+           "final_threshold", "training_config"]
