@@ -49,7 +49,7 @@ def resolve(asked: Union[int, str]) -> int:
     if platform == "gpu" and n > 1:
         raise ValueError(f"--devices {asked}: data-parallel training is refused on GPUs for now: XLA's GPU compiler "
                          f"crashed (segmentation fault) compiling its chunk on 2 H100s (jax 0.11.2; "
-                         f"bench/RESULTS.md, 'Data-parallel stage 1 on two H100s'); train on one GPU")
+                         f"bench/RESULTS.md, 'Where data parallel crashes'); train on one GPU")
     return n
 
 

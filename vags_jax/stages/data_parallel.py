@@ -45,14 +45,17 @@ def local_config(cfg: C.Config) -> C.Config:
         "parallel.devices": 1})
 
 
+# Leaves of size 0 (MJX's empty constraint arrays) are made anew rather than sliced or reshaped:
+# with both kinds in one shard_map program XLA's GPU compiler crashes (bench/RESULTS.md,
+# "Where data parallel crashes").
 def stack(tree):
     """One device's block of a per-device part: a leading axis of 1 on every leaf."""
-    return jax.tree.map(lambda x: x[None], tree)
+    return jax.tree.map(lambda x: jnp.zeros((1,) + x.shape, x.dtype) if x.size == 0 else x[None], tree)
 
 
 def unstack(tree):
     """The inverse of ``stack`` (under ``shard_map`` a device sees ``(1, ...)`` blocks)."""
-    return jax.tree.map(lambda x: x[0], tree)
+    return jax.tree.map(lambda x: jnp.zeros(x.shape[1:], x.dtype) if x.size == 0 else x[0], tree)
 
 
 def state_specs(state_cls, per_device=PER_DEVICE):
