@@ -113,13 +113,12 @@ class FramePolicy:
             raise ValueError(f"--threshold must be a finite number, got {threshold}")
         self.run_dir = run_dir
         self.cfg = cfg = run_config(run_dir, overrides)
-        found = [n for n in ("stage3", "stage2") if os.path.isdir(rundir.networks_dir(run_dir, n))
-                 and checkpoint.checkpoint_steps(rundir.networks_dir(run_dir, n))]
+        found = rundir.vags_stages(run_dir)
         self.gdnet_only = no_viewpoint and not found
         self.ggcnn_camera = None
         if self.gdnet_only:
             _, variables, s = load_gdnet(run_dir, step)
-            self.params, self.source = {"gdnet": variables, "threshold": np.float32(-np.inf)}, f"stage1 step {s}"
+            self.params, self.source = {"gdnet": variables, "threshold": np.float32(-np.inf)}, rundir.networks_source("stage1", s)
             return
         if not found:
             try:
@@ -140,8 +139,8 @@ class FramePolicy:
                                     q_threshold=np.float32(0.0), gdnet=None, vanet=None,
                                     calibration=(np.zeros(checkpoint.part_shapes(d, s, "calibration")[0], np.float32)
                                                  if "calibration" in parts else None),
-                                    gate_table=rate_gate.load(run_dir, f"{found[0]} step {s}"),
-                                    source=f"{found[0]} step {s}"), cfg)
+                                    gate_table=rate_gate.load(run_dir, rundir.networks_source(found[0], s)),
+                                    source=rundir.networks_source(found[0], s)), cfg)
         if cfg.vags.local_planner == "ggcnn":
             self.ggcnn_camera = checkpoint.load_config(ggcnn_dir(run_dir)).camera
         networks = rundir.load_vags(run_dir, cfg, s)

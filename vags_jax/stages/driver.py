@@ -670,15 +670,14 @@ def measure_gate(args, cfg, programs: Programs) -> dict:
     log(f"rate gate: measuring its table ({cfg.gate_table.worlds} piles x {cfg.gate_table.steps} attempts, "
         f"both branches from every state; its programs compile first) ...")
     with CompileClock() as clock:
-        path = gate_measure.measure_into(args.out, log=(lambda m: None) if args.quiet else log, programs=programs)
+        path, table, meta = gate_measure.measure_into(args.out, log=(lambda m: None) if args.quiet else log,
+                                                      programs=programs)
     wall = time.time() - ts
     log(f"rate gate: table measured in {progress.duration(wall)} ({progress.duration(clock.seconds)} of it "
         f"compiling) -> {path}")
     log_timing(args.out, "gate", 0, 1, wall, "done", clock.as_dict())
-    with open(path) as f:
-        t = json.load(f)
-    return {"stage": "gate", "wall_s": round(wall, 1), "live_states": t["live_states"], "bins": len(t["states"]),
-            "moving_bins": sum(v > 0 for v in t["move_value"]), "rate": t["rate"], "out": path}
+    return {"stage": "gate", "wall_s": round(wall, 1), "live_states": meta["live_states"], "bins": len(table.states),
+            "moving_bins": sum(v > 0 for v in table.move_value), "rate": table.rate, "out": path}
 
 
 def train(args, programs: Optional[Programs] = None) -> int:

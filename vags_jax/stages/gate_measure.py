@@ -89,7 +89,7 @@ def due(run_dir: str, cfg) -> bool:
     if cfg.gate_table.worlds == 0 or rundir.progress(run_dir, "stage3") < rundir.total(cfg, "stage3"):
         return False
     steps = checkpoint.checkpoint_steps(rundir.networks_dir(run_dir, "stage3"))
-    return bool(steps) and rate_gate.load(run_dir, f"stage3 step {max(steps)}") is None
+    return bool(steps) and rate_gate.load(run_dir, rundir.networks_source("stage3", max(steps))) is None
 
 
 def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=print, programs=None):
@@ -132,12 +132,13 @@ def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=pri
     return table, meta
 
 
-def measure_into(run_dir: str, log=print, programs=None, **kw) -> str:
-    """``measure`` then ``rate_gate.save`` into RUN/gate.json -> its path; logs the table."""
+def measure_into(run_dir: str, log=print, programs=None, **kw):
+    """``measure`` then ``rate_gate.save`` into RUN/gate.json -> (its path, GateTable, meta);
+    logs the table."""
     table, meta = measure(run_dir, log=log, programs=programs, **kw)
     for line in rate_gate.describe(table).splitlines():
         log(line)
-    return rate_gate.save(run_dir, table, meta)
+    return rate_gate.save(run_dir, table, meta), table, meta
 
 
 def main(argv=None) -> int:

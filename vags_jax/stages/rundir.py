@@ -178,6 +178,18 @@ def networks_dir(run_dir: str, name: str) -> str:
     return os.path.join(stage_dir(run_dir, name), "networks")
 
 
+def networks_source(name: str, step: int) -> str:
+    """The label of a stage's networks at a checkpoint, e.g. "stage3 step 80": ``VagsNetworks.source``,
+    the reports' "networks" and the key RUN/gate.json is stored under."""
+    return f"{name} step {step}"
+
+
+def vags_stages(run_dir: str) -> list:
+    """The stages ("stage3", "stage2") whose networks the run has saved, latest first."""
+    return [n for n in ("stage3", "stage2") if os.path.isdir(networks_dir(run_dir, n))
+            and checkpoint.checkpoint_steps(networks_dir(run_dir, n))]
+
+
 def save_networks(run_dir: str, name: str, step: int, state, cfg: Config) -> str:
     """Writes the GDNet, VANet and success-net variables and the "q" gate's threshold of a
     ``VagsTrainState`` at ``step`` to ``networks_dir`` -> that directory.  After stage 3 the
@@ -202,8 +214,7 @@ def load_vags(run_dir: str, cfg: Optional[Config] = None, step: Optional[int] = 
     GG-CNN from RUN/ggcnn (None when the run has none).  CheckpointError (one line, what to
     run) when there are none."""
     cfg = checkpoint.load_config(run_dir) if cfg is None else cfg
-    found = [n for n in ("stage3", "stage2") if os.path.isdir(networks_dir(run_dir, n))
-             and checkpoint.checkpoint_steps(networks_dir(run_dir, n))]
+    found = vags_stages(run_dir)
     if not found:
         raise checkpoint.CheckpointError(
             f"run {run_dir} has no VANet yet (no stage 2 or 3 networks): train it with "
@@ -223,8 +234,8 @@ def load_vags(run_dir: str, cfg: Optional[Config] = None, step: Optional[int] = 
     if os.path.isdir(ggcnn_stage.ggcnn_dir(run_dir)):
         gg, _ = ggcnn_stage.load_ggcnn(run_dir)
     return VagsNetworks(gdnet=gd, vanet=va, ggcnn=gg, q_threshold=jnp.asarray(thr, jnp.float32), success=su,
-                        calibration=cal, gate_table=rate_gate.load(run_dir, f"{found[0]} step {s}"),
-                        source=f"{found[0]} step {s}")
+                        calibration=cal, gate_table=rate_gate.load(run_dir, networks_source(found[0], s)),
+                        source=networks_source(found[0], s))
 
 
 def load_nbv(run_dir: str, cfg: Optional[Config] = None) -> VagsNetworks:
@@ -242,7 +253,7 @@ def load_nbv(run_dir: str, cfg: Optional[Config] = None) -> VagsNetworks:
     if os.path.isdir(ggcnn_stage.ggcnn_dir(run_dir)):
         gg, _ = ggcnn_stage.load_ggcnn(run_dir)
     return VagsNetworks(gdnet=gd, vanet=va, ggcnn=gg, q_threshold=jnp.asarray(jnp.inf, jnp.float32),
-                        source=f"nbv step {s}")
+                        source=networks_source("nbv", s))
 
 
 def _saved_without(run_dir: str, section: str, field: str) -> bool:
