@@ -186,7 +186,7 @@ def test_data_parallel_is_refused_on_gpus_until_the_compiler_crash_is_fixed(monk
     monkeypatch.setattr(mesh.jax, "devices", lambda *a: gpus)
     monkeypatch.setattr(mesh.jax, "device_count", lambda *a: 2)
     for asked in (2, "all"):
-        with pytest.raises(ValueError, match=r"refused on GPUs for now: .* learning there is unchecked .* train on one GPU"):
+        with pytest.raises(ValueError, match=r"refused on GPUs for now: .* not yet compared with one GPU .* train on one GPU"):
             mesh.resolve(asked)
     assert mesh.resolve(1) == 1
     monkeypatch.setattr(mesh.jax, "devices", lambda *a: [types.SimpleNamespace(platform="cpu")] * 2)
