@@ -238,16 +238,25 @@ def test_pipeline_in_memory_gives_the_networks_train_py_wrote(runs, programs):
     assert [r["loss_vanet"] for r in rows] == [float(x) for x in losses]
 
 
-def test_eval_vags_sweep_csv_and_record(runs, tmp_path, capsys):
+def _eval_py(argv):
+    """eval.py ``argv`` in a new process (this session's compile cache: conftest) -> its stderr."""
+    proc = subprocess.run([sys.executable, os.path.join(ROOT, "eval.py")] + argv, cwd=ROOT, capture_output=True,
+                          text=True)
+    assert proc.returncode == 0, proc.stderr[-4000:]
+    return proc.stderr
+
+
+def test_eval_vags_sweep_csv_and_record(runs, tmp_path):
     """eval.py on the pipeline's run: the vags policy by default, its CSV, a threshold sweep
     whose extremes never / always move the camera, quantile thresholds taken from the scores
-    the main run recorded, and --record pictures."""
+    the main run recorded, and --record pictures.  It runs in a new process, and a second
+    eval.py process of the same groups and rounds compiles nothing (its programs come from the
+    cache the first filled) and gives the same overall figures."""
     full, _ = runs
     out, rec = str(tmp_path / "vags.json"), str(tmp_path / "pictures")
-    assert eval_cli.main(["--run", full, "--groups", "1,2", "--rounds", "2", "--out", out,
-                          "--threshold-sweep=-1000:1000:2000", "--quantile-sweep", "0:1:1", "--record", rec]) == 0
-    captured = capsys.readouterr()
-    assert "evaluating vags (" in captured.err and "stage3 step 4" in captured.err
+    err = _eval_py(["--run", full, "--groups", "1,2", "--rounds", "2", "--out", out,
+                    "--threshold-sweep=-1000:1000:2000", "--quantile-sweep", "0:1:1", "--record", rec])
+    assert "evaluating vags (" in err and "stage3 step 4" in err
     with open(out) as f:
         report = json.load(f)
     assert report["policy"] == "vags" and report["networks"] == "stage3 step 4"
@@ -270,18 +279,14 @@ def test_eval_vags_sweep_csv_and_record(runs, tmp_path, capsys):
     with open(rounds_json[0]) as f:
         attempts = json.load(f)["attempts"]
     assert attempts and all(a["direct"] in (True, False) and a["success"] in (True, False) for a in attempts)
-    # Two new eval.py processes: the second compiles nothing, its programs come from the cache the
-    # first filled.  (In this process the text of a program depends on what it traced before: the
-    # pipeline and its gate table; bench/RESULTS.md, "Compile cache".)
-    again = []
-    for name in ("first", "second"):
-        path = str(tmp_path / f"{name}.json")
-        subprocess.run([sys.executable, os.path.join(ROOT, "eval.py"), "--run", full, "--groups", "1,2", "--rounds",
-                        "2", "--out", path], cwd=ROOT, check=True, capture_output=True)
-        with open(path) as f:
-            again.append(json.load(f))
-    assert again[1]["compile"]["compiled"] == 0 and again[1]["compile"]["loaded"] > 0, again[1]["compile"]
-    assert again[0]["overall"] == again[1]["overall"] == report["overall"]
+    # Both evaluations run in new processes: in this one the text of a program depends on what it
+    # traced before (the pipeline and its gate table; bench/RESULTS.md, "Compile cache").
+    path = str(tmp_path / "second.json")
+    _eval_py(["--run", full, "--groups", "1,2", "--rounds", "2", "--out", path])
+    with open(path) as f:
+        again = json.load(f)
+    assert again["compile"]["compiled"] == 0 and again["compile"]["loaded"] > 0, again["compile"]
+    assert again["overall"] == report["overall"]
 
 
 def _gate_table(run):
