@@ -118,7 +118,8 @@ class FramePolicy:
         self.ggcnn_camera = None
         if self.gdnet_only:
             _, variables, s = load_gdnet(run_dir, step)
-            self.params, self.source = {"gdnet": variables, "threshold": np.float32(-np.inf)}, rundir.networks_source("stage1", s)
+            self.params = {"gdnet": variables, "threshold": np.float32(-np.inf)}
+            self.source = rundir.networks_source("stage1", s)
             return
         if not found:
             try:
@@ -133,14 +134,14 @@ class FramePolicy:
         if s not in steps:
             raise ValueError(f"no checkpoint {s} in {d} (available steps: {steps}); drop --step or give one of them")
         parts = checkpoint.saved_parts(d, s)
+        source = rundir.networks_source(found[0], s)
 
         has_ggcnn = os.path.isdir(ggcnn_dir(run_dir))
         vags_params(SimpleNamespace(success=() if "success" in parts else None, ggcnn=() if has_ggcnn else None,
                                     q_threshold=np.float32(0.0), gdnet=None, vanet=None,
                                     calibration=(np.zeros(checkpoint.part_shapes(d, s, "calibration")[0], np.float32)
                                                  if "calibration" in parts else None),
-                                    gate_table=rate_gate.load(run_dir, rundir.networks_source(found[0], s)),
-                                    source=rundir.networks_source(found[0], s)), cfg)
+                                    gate_table=rate_gate.load(run_dir, source), source=source), cfg)
         if cfg.vags.local_planner == "ggcnn":
             self.ggcnn_camera = checkpoint.load_config(ggcnn_dir(run_dir)).camera
         networks = rundir.load_vags(run_dir, cfg, s)
