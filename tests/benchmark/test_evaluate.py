@@ -55,6 +55,9 @@ def test_metrics_hand_computed():
     v = M.summarize(_outcomes(motions=[2, 6, 4], viewpoints=[0, 1, 0], travel=[1.0, 2.3, 1.5]))
     assert v["motion_number"] == pytest.approx(12 / 6) and v["viewpoint_rate"] == pytest.approx(1 / 11)
     assert v["robot_seconds"] == pytest.approx(seconds + 0.5 + 0.3 / 0.5)
+    assert "objects_lost_after_move" not in v  # outcomes that do not record it
+    lam = M.summarize(_outcomes(viewpoints=[0, 1, 0], lost_after_move=[0, 1, 0]))
+    assert lam["objects_lost"] == 1 and lam["objects_lost_after_move"] == 1
 
 
 def test_metrics_pool_and_edge_cases():
@@ -220,6 +223,7 @@ def test_tiny_heuristic_evaluation_is_sane(tiny_eval):
         # A round stops as soon as it is cleared, and only then before its budget.
         left = np.asarray(out["remaining"])
         assert ((att == 2 * k + 1) | (left == 0)).all()
+        assert (np.asarray(out["lost_after_move"]) == 0).all()  # the heuristic never moves the camera
     overall = report["overall"]
     assert overall["attempts"] == sum(m["attempts"] for m in report["groups_metrics"])
     print(M.format_table(report))

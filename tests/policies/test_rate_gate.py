@@ -38,6 +38,23 @@ def test_fit_bins_by_quantiles_and_values_moves_at_the_best_rate():
     assert t.rate == pytest.approx(1 / 6)
     assert t.move_value == pytest.approx((2 / 3, -0.5 - 1 / 3))
     np.testing.assert_allclose(t.array(), [[0.45, np.inf], [2 / 3, -0.5 - 1 / 3]], rtol=1e-6)
+    # Objects knocked off, per bin and paired: direct loses one in each bin (1/4 and 1/4), the
+    # move three in the low bin and none in the high one (3/4, 0).  Over all 8 states the paired
+    # differences are [1, 0, 0, 1, 0, 0, 0, -1]: mean 1/8, squared deviations 2.875 over 7 degrees
+    # of freedom; over the moving (low) bin [1, 0, 0, 1]: mean 1/2, standard deviation sqrt(1/3).
+    l_d = np.array([0, 1, 0, 0, 0, 0, 0, 1])
+    l_m = np.array([1, 1, 0, 1, 0, 0, 0, 0])
+    t = rate_gate.fit(p, s_d, t_d, s_m, t_m, 2, lost_direct=l_d, lost_moved=l_m)
+    assert t.lost_direct == (0.25, 0.25) and t.lost_moved == (0.75, 0.0)
+    assert t.move_value == pytest.approx((2 / 3, -0.5 - 1 / 3))  # the decision ignores them
+    pl = rate_gate.paired_lost(t, p, l_d, l_m)
+    assert pl["all"]["states"] == 8 and pl["all"]["direct"] == 0.25 and pl["all"]["moved"] == 0.375
+    assert pl["all"]["difference"] == pytest.approx(1 / 8) and pl["all"]["se"] == pytest.approx(np.sqrt(2.875 / 7 / 8))
+    assert pl["moved_bins"]["states"] == 4 and pl["moved_bins"]["difference"] == pytest.approx(0.5)
+    assert pl["moved_bins"]["se"] == pytest.approx(np.sqrt(1 / 3) / 2)
+    assert "| 25.0 | 75.0 |" in rate_gate.describe(t)
+    assert "moved_bins (4 states): direct 0.250, after a move 0.750, paired difference +0.500 +- 0.289" in \
+        rate_gate.describe_lost(pl)
     # Ties: 8 equal estimates make one bin, whatever was asked.
     assert rate_gate.fit(np.full(8, 0.5), s_d, t_d, s_m, t_m, 4).states == (8,)
     with pytest.raises(ValueError, match="one state per bin: 3 states for 4 bins"):
@@ -71,3 +88,6 @@ def test_gate_json_round_trip_and_stale_tables(tmp_path):
     assert rate_gate.load(str(tmp_path), "stage3 step 80") is not None
     assert rate_gate.load(str(tmp_path), "stage3 step 96") is None  # measured on other networks
     assert rate_gate.load(str(tmp_path / "nothing")) is None
+    # A table written before the objects lost were recorded still loads.
+    json.dump({k: v for k, v in json.load(open(path)).items() if not k.startswith("lost_")}, open(path, "w"))
+    np.testing.assert_allclose(rate_gate.load(str(tmp_path)), [[0.5, np.inf], [0.35, -0.28]], rtol=1e-6)

@@ -153,6 +153,7 @@ def test_ggcnn_close_policy_counts_a_viewpoint_per_attempt(cfg):
     assert (out.attempts >= 1).all() and (out.attempts <= 2 * 2 + 1).all()
     assert (out.motions == 2 * out.attempts).all()
     assert (out.viewpoints == out.attempts).all()
+    np.testing.assert_array_equal(np.asarray(out.lost_after_move), out.lost)  # every loss came after a move
     m = M.summarize(out)
     assert m["viewpoint_rate"] == 1.0
 

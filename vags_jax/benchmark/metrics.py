@@ -97,6 +97,8 @@ class RoundOutcomes:
     largest Q), NaN after the round's last attempt or for planners without one.
     pushes: pushes (VPG: one motion each, no grasp attempt; ``attempts`` counts grasps only),
     None for policies that never push.
+    lost_after_move: the part of the objects lost (``lost``) knocked off by attempts made after
+    a viewpoint move.
     """
 
     n_objects: Any
@@ -112,6 +114,7 @@ class RoundOutcomes:
     overflow: Any
     scores: Any = None
     pushes: Any = None
+    lost_after_move: Any = None
 
     @property
     def cleared(self) -> np.ndarray:
@@ -176,6 +179,7 @@ def summarize(out: RoundOutcomes, time_model: MotionTimeModel = MotionTimeModel(
         "physics_errors": int(np.sum(out.error)),
         "buffer_overflows": int(np.sum(out.overflow)),
         **({} if out.pushes is None else {"pushes": int(np.sum(out.pushes))}),
+        **({} if out.lost_after_move is None else {"objects_lost_after_move": int(np.sum(out.lost_after_move))}),
     }
 
 

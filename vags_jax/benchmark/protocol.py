@@ -52,6 +52,7 @@ class _Carry:
     return_travel: jax.Array  # (B,) float32
     on_object: jax.Array  # (B,) int32
     viewpoints: jax.Array  # (B,) int32
+    lost_after_move: jax.Array  # (B,) int32 objects knocked off by attempts after a viewpoint move
     pushes: jax.Array  # (B,) int32 (policies that push: VPG)
     scores: jax.Array  # (B, T) float32, NaN where no attempt was made
     key: jax.Array
@@ -155,7 +156,10 @@ class Evaluator:
             aimed = inside & (c.env.height[jnp.arange(B), pixel[:, 0], pixel[:, 1]] > cfg.exploration.height_threshold)
             on_obj = c.on_object + (aimed & ~keep & ~push).astype(jnp.int32)
             n_push = c.pushes + (push & ~keep).astype(jnp.int32)
-            views = c.viewpoints + ((attempt.motions > 1) & ~keep).astype(jnp.int32)
+            moved = (attempt.motions > 1) & ~keep
+            views = c.viewpoints + moved.astype(jnp.int32)
+            lost = env.n_remaining(c.env) - env.n_remaining(s2) - (res.success & ~keep).astype(jnp.int32)
+            lost_after_move = c.lost_after_move + jnp.where(moved, lost, 0)
             scores = c.scores
             if attempt.score is not None:
                 score = jnp.where(keep, jnp.nan, attempt.score.astype(jnp.float32))
@@ -164,11 +168,12 @@ class Evaluator:
             if pushes:
                 done = done | (s2.attempts + n_push >= env.max_attempts(s2.sim.n_objects, extra))
             return _Carry(env=s2, done=done, return_travel=ret, on_object=on_obj, viewpoints=views,
-                          pushes=n_push, scores=scores, key=key, t=c.t + 1, memory=memory)
+                          lost_after_move=lost_after_move, pushes=n_push, scores=scores, key=key, t=c.t + 1, memory=memory)
 
         zi = jnp.zeros((B,), jnp.int32)
         c0 = _Carry(env=s0, done=env.round_over(s0, extra) | s0.sim.error,
-                    return_travel=jnp.zeros((B,), jnp.float32), on_object=zi, viewpoints=zi, pushes=zi,
+                    return_travel=jnp.zeros((B,), jnp.float32), on_object=zi, viewpoints=zi, lost_after_move=zi,
+                    pushes=zi,
                     scores=jnp.full((B, T), jnp.nan, jnp.float32), key=key, t=jnp.zeros((), jnp.int32),
                     memory=None if policy.init_memory is None else policy.init_memory(B))
         c = jax.lax.while_loop(cond, body, c0)
@@ -177,7 +182,7 @@ class Evaluator:
             n_objects=s.sim.n_objects, attempts=s.attempts, successes=s.successes, motions=s.motions,
             travel=s.travel, return_travel=c.return_travel, remaining=env.n_remaining(s), on_object=c.on_object,
             viewpoints=c.viewpoints, error=s.sim.error, overflow=s.sim.overflow, scores=c.scores,
-            pushes=c.pushes if pushes else None)
+            pushes=c.pushes if pushes else None, lost_after_move=c.lost_after_move)
         return out
 
     def run_group(self, policy: Policy, key, n_objects: int, rounds: int) -> RoundOutcomes:

@@ -9,6 +9,8 @@ on the ratio of expected picks to expected seconds), and a bin's move value is
 ``moved - direct - rate * extra_seconds``: a move pays where it is positive.  Unlike the
 "success" gate, the comparison needs no bias correction and no fixed move cost: both branches
 are measured on every state, and the motion's cost is its time at the rate the gate achieves.
+The table also holds the objects each branch knocks off the table (``lost_*``), reported beside
+the decision (``paired_lost``) but not part of it.
 
 Stored as ``RUN/gate.json`` (``save`` / ``load``); ``GateTable.array()`` is the (2, K) array the
 jitted decision reads (``move_value``).
@@ -32,7 +34,9 @@ class GateTable:
     """Per bin k of p_direct (K bins, ``edges`` (K-1,) between them): ``states`` counted,
     success of the ``direct`` grasp and of the grasp after a move (``moved``), the modelled
     seconds a move adds (``extra_seconds``, moved minus direct), and ``move_value`` =
-    moved - direct - rate * extra_seconds; ``rate``: picks per second of the best gate."""
+    moved - direct - rate * extra_seconds; ``rate``: picks per second of the best gate;
+    ``lost_direct`` / ``lost_moved``: objects per attempt that left the table without a grasp
+    on each branch (empty in tables measured before they were recorded)."""
 
     edges: tuple
     states: tuple
@@ -41,6 +45,8 @@ class GateTable:
     extra_seconds: tuple
     rate: float
     move_value: tuple
+    lost_direct: tuple = ()
+    lost_moved: tuple = ()
 
     def array(self) -> np.ndarray:
         """(2, K) float32: row 0 the bins' upper edges (the last +inf), row 1 ``move_value``."""
@@ -66,9 +72,10 @@ def best_rate(n, s_d, t_d, s_m, t_m, iterations: int = 50):
     return rate, move
 
 
-def fit(p, s_d, t_d, s_m, t_m, n_bins: int) -> GateTable:
+def fit(p, s_d, t_d, s_m, t_m, n_bins: int, lost_direct=None, lost_moved=None) -> GateTable:
     """Per-state (N,) arrays -> ``GateTable`` over ``n_bins`` quantile bins of p (bins that
-    would be empty are merged, so ties in p give fewer bins)."""
+    would be empty are merged, so ties in p give fewer bins); ``lost_*`` (N,) objects each
+    branch knocked off (optional)."""
     p = np.asarray(p, np.float64)
     if n_bins < 1 or p.size < n_bins:
         raise ValueError(f"the gate table needs at least one state per bin: {p.size} states for {n_bins} bins")
@@ -81,8 +88,27 @@ def fit(p, s_d, t_d, s_m, t_m, n_bins: int) -> GateTable:
     sd, td, sm, tm = per(s_d), per(t_d), per(s_m), per(t_m)
     rate, _ = best_rate(n, sd, td, sm, tm)
     f = lambda x: tuple(float(v) for v in x)  # noqa: E731
+    lost = {} if lost_direct is None else {"lost_direct": f(per(lost_direct)), "lost_moved": f(per(lost_moved))}
     return GateTable(edges=f(edges), states=tuple(int(v) for v in n), direct=f(sd), moved=f(sm),
-                     extra_seconds=f(tm - td), rate=float(rate), move_value=f((sm - sd) - rate * (tm - td)))
+                     extra_seconds=f(tm - td), rate=float(rate), move_value=f((sm - sd) - rate * (tm - td)), **lost)
+
+
+def paired_lost(table: GateTable, p, lost_direct, lost_moved) -> dict:
+    """Objects knocked off the table per attempt, direct against after a move on the same states
+    (N,): over all states and over those the table moves, each with the paired difference
+    (moved - direct) and its standard error."""
+    p = np.asarray(p, np.float64)
+    moves = np.asarray(table.move_value)[np.searchsorted(np.asarray(table.edges), p, side="right")] > 0
+    out = {}
+    for name, keep in (("all", np.ones(p.shape, bool)), ("moved_bins", moves)):
+        d = np.asarray(lost_direct, np.float64)[keep]
+        m = np.asarray(lost_moved, np.float64)[keep]
+        diff = m - d
+        se = float(np.std(diff, ddof=1) / np.sqrt(diff.size)) if diff.size > 1 else float("nan")
+        out[name] = {"states": int(keep.sum()), "direct": float(d.mean()) if d.size else float("nan"),
+                     "moved": float(m.mean()) if m.size else float("nan"),
+                     "difference": float(diff.mean()) if diff.size else float("nan"), "se": se}
+    return out
 
 
 def move_value(table: jax.Array, p_direct: jax.Array) -> jax.Array:
@@ -116,13 +142,23 @@ def load(run_dir: str, networks: Optional[str] = None) -> Optional[np.ndarray]:
 
 def describe(table: GateTable) -> str:
     """A Markdown table of the bins."""
+    lost = bool(table.lost_direct)
     lines = [f"picks per second of the best gate: {table.rate:.4f} ({3600 * table.rate:.0f} per hour at one attempt "
-             "per state)", "", "| p_direct bin | states | direct % | after a move % | extra s | move value | moves |",
-             "|---|---:|---:|---:|---:|---:|---|"]
+             "per state)", "", "| p_direct bin | states | direct % | after a move % | extra s | move value | moves |"
+             + (" lost per 100, direct | lost per 100, after a move |" if lost else ""),
+             "|---|---:|---:|---:|---:|---:|---|" + ("---:|---:|" if lost else "")]
     lo = ["-inf"] + [f"{e:.3f}" for e in table.edges]
     hi = [f"{e:.3f}" for e in table.edges] + ["inf"]
     for i in range(len(table.states)):
         lines.append(f"| [{lo[i]}, {hi[i]}) | {table.states[i]} | {100 * table.direct[i]:.1f} | "
                      f"{100 * table.moved[i]:.1f} | {table.extra_seconds[i]:+.2f} | {table.move_value[i]:+.3f} | "
-                     f"{'yes' if table.move_value[i] > 0 else 'no'} |")
+                     f"{'yes' if table.move_value[i] > 0 else 'no'} |"
+                     + (f" {100 * table.lost_direct[i]:.1f} | {100 * table.lost_moved[i]:.1f} |" if lost else ""))
     return "\n".join(lines)
+
+
+def describe_lost(lost: dict) -> str:
+    """``paired_lost``'s dict as lines."""
+    return "\n".join(f"objects lost per attempt, {name} ({v['states']} states): direct {v['direct']:.3f}, after a "
+                     f"move {v['moved']:.3f}, paired difference {v['difference']:+.3f} +- {v['se']:.3f}"
+                     for name, v in lost.items())

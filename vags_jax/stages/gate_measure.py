@@ -43,15 +43,17 @@ PROG = "python -m vags_jax.stages.gate_measure"
 def make_collect(cfg, env: VagsEnv, nets: VagsNets):
     """-> jitted ``(params, key, state) -> (next state, per-world dict of (B,) arrays)``:
     ``p_direct`` the success net's raw estimate at GDNet's argmax; for each branch ("direct",
-    "moved") its ``success``, ``motions``, ``travel`` (m, camera move + approach + descend +
-    lift) and ``back`` (m, the return to the global pose after a failure); ``live`` worlds
-    with objects and no physics error.  The next state follows the direct grasp."""
+    "moved") its ``success``, ``lost`` (objects that left the table without a grasp),
+    ``motions``, ``travel`` (m, camera move + approach + descend + lift) and ``back`` (m, the
+    return to the global pose after a failure); ``live`` worlds with objects and no physics
+    error.  The next state follows the direct grasp."""
     start = jnp.asarray(cfg.camera.global_position, jnp.float32)
 
     def branch(name, state, attempt):
-        _, r = env.step_attempt(state, attempt, observe=False)
+        after, r = env.step_attempt(state, attempt, observe=False)
         back = jnp.where(r.success, 0.0, return_distance(cfg, attempt.position, start))
-        return {f"{name}_success": r.success, f"{name}_motions": attempt.motions,
+        lost = env.n_remaining(state) - env.n_remaining(after) - r.success.astype(jnp.int32)
+        return {f"{name}_success": r.success, f"{name}_lost": lost, f"{name}_motions": attempt.motions,
                 f"{name}_travel": r.approach + r.descend + r.lift + attempt.view_travel, f"{name}_back": back}
 
     def step(params, key, state):
@@ -124,10 +126,12 @@ def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=pri
     rows = {k: v[live] for k, v in rows.items()}
     tm = MotionTimeModel.from_config(cfg)
     table = rate_gate.fit(rows["p_direct"], rows["direct_success"], seconds(rows, "direct", tm),
-                          rows["moved_success"], seconds(rows, "moved", tm), bins)
+                          rows["moved_success"], seconds(rows, "moved", tm), bins,
+                          lost_direct=rows["direct_lost"], lost_moved=rows["moved_lost"])
     meta = {"networks": networks.source, "worlds": worlds, "steps": steps, "seed": seed,
             "objects": [stage.min_objects, stage.max_objects], "live_states": int(live.sum()),
             "viewpoint": cfg.vags.viewpoint, "local_planner": cfg.vags.local_planner,
+            "lost": rate_gate.paired_lost(table, rows["p_direct"], rows["direct_lost"], rows["moved_lost"]),
             "wall_s": round(time.time() - t0, 1), "device": str(jax.devices()[0])}
     return table, meta
 
@@ -136,7 +140,7 @@ def measure_into(run_dir: str, log=print, programs=None, **kw):
     """``measure`` then ``rate_gate.save`` into RUN/gate.json -> (its path, GateTable, meta);
     logs the table."""
     table, meta = measure(run_dir, log=log, programs=programs, **kw)
-    for line in rate_gate.describe(table).splitlines():
+    for line in (rate_gate.describe(table) + "\n" + rate_gate.describe_lost(meta["lost"])).splitlines():
         log(line)
     return rate_gate.save(run_dir, table, meta), table, meta
 
@@ -162,6 +166,7 @@ def main(argv=None) -> int:
         print(f"{PROG}: {e}", file=sys.stderr)
         return 2
     print(rate_gate.describe(table))
+    print(rate_gate.describe_lost(meta["lost"]))
     print(f"wrote {rate_gate.save(args.run, table, meta)}")
     return 0
 
