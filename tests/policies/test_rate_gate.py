@@ -52,7 +52,16 @@ def test_fit_bins_by_quantiles_and_values_moves_at_the_best_rate():
     assert pl["all"]["difference"] == pytest.approx(1 / 8) and pl["all"]["se"] == pytest.approx(np.sqrt(2.875 / 7 / 8))
     assert pl["moved_bins"]["states"] == 4 and pl["moved_bins"]["difference"] == pytest.approx(0.5)
     assert pl["moved_bins"]["se"] == pytest.approx(np.sqrt(1 / 3) / 2)
-    assert "| 25.0 | 75.0 |" in rate_gate.describe(t)
+    assert "| 25.0 | 75.0 |" in rate_gate.describe(t) and not t.count_lost
+    # Counted as picks lost, net picks per attempt are low bin -0.25 direct, 0.25 moved; high bin
+    # 0.75 and 0.5.  Direct alone: 2 / 40 s; moving the low bin: 4 / 48 s = 1/12, the best (both:
+    # 3 / 56).  Values: low 0.5 - 2/12 = 1/3; high -0.25 - 1/6 = -5/12.
+    c = rate_gate.fit(p, s_d, t_d, s_m, t_m, 2, lost_direct=l_d, lost_moved=l_m, count_lost=True)
+    assert c.count_lost and c.rate == pytest.approx(1 / 12) and c.move_value == pytest.approx((1 / 3, -5 / 12))
+    assert c.direct == t.direct and c.moved == t.moved  # the table still shows plain success
+    assert rate_gate.describe(c).startswith("net picks (picks minus objects knocked off) per second")
+    with pytest.raises(ValueError, match="count_lost needs"):
+        rate_gate.fit(p, s_d, t_d, s_m, t_m, 2, count_lost=True)
     assert "moved_bins (4 states): direct 0.250, after a move 0.750, paired difference +0.500 +- 0.289" in \
         rate_gate.describe_lost(pl)
     # Ties: 8 equal estimates make one bin, whatever was asked.

@@ -992,12 +992,14 @@ class GateTable:
     stage 3's object counts, ``steps`` direct attempts each (every state runs both branches),
     ``bins`` quantile bins of the success net's p_direct, piles drawn from ``seed``.
     ``worlds=0``: the pipeline measures no table (``python -m vags_jax.stages.gate_measure``
-    can later)."""
+    can later).  ``count_lost``: each object a branch knocks off the table counts as a pick
+    lost (the gate then maximises net picks per second; ``rate_gate``)."""
 
     worlds: int = 256
     steps: int = 4
     bins: int = 8
     seed: int = 0
+    count_lost: bool = False
 
     def __post_init__(self):
         _within("GateTable.worlds", self.worlds, 0, 1 << 20)

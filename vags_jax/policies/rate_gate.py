@@ -9,8 +9,10 @@ on the ratio of expected picks to expected seconds), and a bin's move value is
 ``moved - direct - rate * extra_seconds``: a move pays where it is positive.  Unlike the
 "success" gate, the comparison needs no bias correction and no fixed move cost: both branches
 are measured on every state, and the motion's cost is its time at the rate the gate achieves.
-The table also holds the objects each branch knocks off the table (``lost_*``), reported beside
-the decision (``paired_lost``) but not part of it.
+The table also holds the objects each branch knocks off the table (``lost_*``, ``paired_lost``).
+By default they are reported beside the decision; with ``count_lost`` (``gate_table.count_lost``)
+each one counts as a pick lost, so the gate maximises net picks per second (picks minus objects
+knocked off) and a move must also pay for the objects it knocks off.
 
 Stored as ``RUN/gate.json`` (``save`` / ``load``); ``GateTable.array()`` is the (2, K) array the
 jitted decision reads (``move_value``).
@@ -36,7 +38,8 @@ class GateTable:
     seconds a move adds (``extra_seconds``, moved minus direct), and ``move_value`` =
     moved - direct - rate * extra_seconds; ``rate``: picks per second of the best gate;
     ``lost_direct`` / ``lost_moved``: objects per attempt that left the table without a grasp
-    on each branch (empty in tables measured before they were recorded)."""
+    on each branch (empty in tables measured before they were recorded); ``count_lost``: the
+    rate and move values count each as a pick lost."""
 
     edges: tuple
     states: tuple
@@ -47,6 +50,7 @@ class GateTable:
     move_value: tuple
     lost_direct: tuple = ()
     lost_moved: tuple = ()
+    count_lost: bool = False
 
     def array(self) -> np.ndarray:
         """(2, K) float32: row 0 the bins' upper edges (the last +inf), row 1 ``move_value``."""
@@ -72,10 +76,12 @@ def best_rate(n, s_d, t_d, s_m, t_m, iterations: int = 50):
     return rate, move
 
 
-def fit(p, s_d, t_d, s_m, t_m, n_bins: int, lost_direct=None, lost_moved=None) -> GateTable:
+def fit(p, s_d, t_d, s_m, t_m, n_bins: int, lost_direct=None, lost_moved=None, count_lost: bool = False) -> GateTable:
     """Per-state (N,) arrays -> ``GateTable`` over ``n_bins`` quantile bins of p (bins that
     would be empty are merged, so ties in p give fewer bins); ``lost_*`` (N,) objects each
-    branch knocked off (optional)."""
+    branch knocked off (optional; ``count_lost``: each counts as a pick lost)."""
+    if count_lost and lost_direct is None:
+        raise ValueError("count_lost needs the objects each branch knocked off (lost_direct, lost_moved)")
     p = np.asarray(p, np.float64)
     if n_bins < 1 or p.size < n_bins:
         raise ValueError(f"the gate table needs at least one state per bin: {p.size} states for {n_bins} bins")
@@ -86,11 +92,13 @@ def fit(p, s_d, t_d, s_m, t_m, n_bins: int, lost_direct=None, lost_moved=None) -
     n = np.bincount(k, minlength=edges.size + 1)  # every bin holds at least one state
     per = lambda x: np.bincount(k, weights=np.asarray(x, np.float64), minlength=n.size) / n  # noqa: E731
     sd, td, sm, tm = per(s_d), per(t_d), per(s_m), per(t_m)
-    rate, _ = best_rate(n, sd, td, sm, tm)
+    gd, gm = (sd - per(lost_direct), sm - per(lost_moved)) if count_lost else (sd, sm)  # picks counted per attempt
+    rate, _ = best_rate(n, gd, td, gm, tm)
     f = lambda x: tuple(float(v) for v in x)  # noqa: E731
-    lost = {} if lost_direct is None else {"lost_direct": f(per(lost_direct)), "lost_moved": f(per(lost_moved))}
+    lost = {} if lost_direct is None else {"lost_direct": f(per(lost_direct)), "lost_moved": f(per(lost_moved)),
+                                           "count_lost": bool(count_lost)}
     return GateTable(edges=f(edges), states=tuple(int(v) for v in n), direct=f(sd), moved=f(sm),
-                     extra_seconds=f(tm - td), rate=float(rate), move_value=f((sm - sd) - rate * (tm - td)), **lost)
+                     extra_seconds=f(tm - td), rate=float(rate), move_value=f((gm - gd) - rate * (tm - td)), **lost)
 
 
 def paired_lost(table: GateTable, p, lost_direct, lost_moved) -> dict:
@@ -143,7 +151,8 @@ def load(run_dir: str, networks: Optional[str] = None) -> Optional[np.ndarray]:
 def describe(table: GateTable) -> str:
     """A Markdown table of the bins."""
     lost = bool(table.lost_direct)
-    lines = [f"picks per second of the best gate: {table.rate:.4f} ({3600 * table.rate:.0f} per hour at one attempt "
+    picks = "net picks (picks minus objects knocked off)" if table.count_lost else "picks"
+    lines = [f"{picks} per second of the best gate: {table.rate:.4f} ({3600 * table.rate:.0f} per hour at one attempt "
              "per state)", "", "| p_direct bin | states | direct % | after a move % | extra s | move value | moves |"
              + (" lost per 100, direct | lost per 100, after a move |" if lost else ""),
              "|---|---:|---:|---:|---:|---:|---|" + ("---:|---:|" if lost else "")]

@@ -94,14 +94,16 @@ def due(run_dir: str, cfg) -> bool:
     return bool(steps) and rate_gate.load(run_dir, rundir.networks_source("stage3", max(steps))) is None
 
 
-def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=print, programs=None):
+def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=print, programs=None,
+            count_lost=None):
     """The gate table of a trained run (stage 3's networks, else stage 2's) -> (GateTable, meta).
-    worlds / steps / bins / seed default to the run's ``gate_table`` config; programs: a
+    worlds / steps / bins / seed / count_lost default to the run's ``gate_table`` config; programs: a
     ``driver.Programs`` whose compiled collect step is reused (train.py's pipeline)."""
     run_cfg = checkpoint.load_config(run_dir)
     g = run_cfg.gate_table
     worlds, steps = worlds or g.worlds or GateTable().worlds, steps or g.steps
     bins, seed = bins or g.bins, g.seed if seed is None else seed
+    count_lost = g.count_lost if count_lost is None else count_lost
     cfg = measure_config(run_cfg)
     networks = rundir.load_vags(run_dir, cfg)
     params = vags_params(networks, cfg)  # ValueError without a success net
@@ -127,7 +129,7 @@ def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=pri
     tm = MotionTimeModel.from_config(cfg)
     table = rate_gate.fit(rows["p_direct"], rows["direct_success"], seconds(rows, "direct", tm),
                           rows["moved_success"], seconds(rows, "moved", tm), bins,
-                          lost_direct=rows["direct_lost"], lost_moved=rows["moved_lost"])
+                          lost_direct=rows["direct_lost"], lost_moved=rows["moved_lost"], count_lost=count_lost)
     meta = {"networks": networks.source, "worlds": worlds, "steps": steps, "seed": seed,
             "objects": [stage.min_objects, stage.max_objects], "live_states": int(live.sum()),
             "viewpoint": cfg.vags.viewpoint, "local_planner": cfg.vags.local_planner,
@@ -154,6 +156,8 @@ def main(argv=None) -> int:
                    "(default: the run's gate_table.steps)")
     p.add_argument("--bins", type=int, default=None, help="quantile bins of p_direct (default: gate_table.bins)")
     p.add_argument("--seed", type=int, default=None, help="(default: gate_table.seed)")
+    p.add_argument("--count-lost", action="store_true", default=None,
+                   help="count each object a branch knocks off the table as a pick lost (default: gate_table.count_lost)")
     args = p.parse_args(argv)
     for name in ("worlds", "steps", "bins"):
         if getattr(args, name) is not None and getattr(args, name) < 1:
@@ -161,7 +165,7 @@ def main(argv=None) -> int:
             return 2
     try:
         table, meta = measure(args.run, args.worlds, args.steps, args.bins, args.seed,
-                              log=lambda m: print(m, file=sys.stderr, flush=True))
+                              log=lambda m: print(m, file=sys.stderr, flush=True), count_lost=args.count_lost)
     except (ValueError, checkpoint.CheckpointError, FileNotFoundError) as e:
         print(f"{PROG}: {e}", file=sys.stderr)
         return 2
