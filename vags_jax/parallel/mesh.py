@@ -46,10 +46,6 @@ def resolve(asked: Union[int, str]) -> int:
     if n > have:
         raise ValueError(f"--devices {asked} asks for more devices than the {have} {platform} device(s) JAX sees "
                          f"here; pass --devices {have} (or all), or fewer")
-    if platform == "gpu" and n > 1:
-        raise ValueError(f"--devices {asked}: data-parallel training is refused on GPUs for now: its chunk compiles "
-                         f"and runs on 2 H100s, but what it learns there is not yet compared with one GPU "
-                         f"(bench/RESULTS.md, 'Data parallel on two H100s: it compiles and runs'); train on one GPU")
     return n
 
 

@@ -106,7 +106,7 @@ def train_ggcnn_into(cfg, out: str, data_dir: str, quiet: bool, programs: Progra
     d = cfg.ggcnn_data
     log(f"training GG-CNN: {d.views} views ({d.heldout_views} held out) of {d.candidates} grasps, "
         f"{cfg.ggcnn.train_steps} updates of batch {cfg.ggcnn.batch_size}, input {cfg.ggcnn.input_size} px, "
-        f"impl={cfg.sim.impl}, devices={jax.devices()}")
+        f"impl={cfg.sim.impl}, device={jax.devices()[0]}")
     try:
         with progress.compile_step("GG-CNN's data (scenes, renders, grasp trials)", log):
             data = ggcnn_data.load_or_make(cfg, maker, data_dir, log)
@@ -232,7 +232,7 @@ def _vpg_segment(args, plan, programs: Programs, stop, board, clock) -> int:
     checkpoint.save_config(out_dir, cfg)
     v = cfg.vpg
     log(f"training VPG (push and grasp nets): {v.n_worlds} worlds of {v.min_objects}-{v.max_objects} objects, "
-        f"{v.iterations} iterations, impl={cfg.sim.impl}, trunk={cfg.net.trunk}, devices={jax.devices()}")
+        f"{v.iterations} iterations, impl={cfg.sim.impl}, trunk={cfg.net.trunk}, device={jax.devices()[0]}")
     state, it, status, actions, recent = run_chunks("vpg", program, state, done, v.iterations, out_dir, args,
                                                     deadline, stop=stop, board=board, recompiles=recompiles)
     if end_of_segment(args, "vpg", done, it, t0, status, {**clock.as_dict(), "recompiled_chunks": recompiles}):
@@ -516,7 +516,7 @@ def _run_stage(cfg, args, name, done, h, deadline, programs, arrays, stop, board
         d = cfg.parallel.devices
         k = st.n_worlds // d
         where = (f"data parallel over {d} devices ({k} world{'s' if k > 1 else ''} each): "
-                 f"{jax.devices()[:d]}" if d > 1 else f"devices={jax.devices()}")
+                 f"{jax.devices()[:d]}" if d > 1 else f"device={jax.devices()[0]}")
         log(f"training stage 1 (GDNet): {st.n_worlds} worlds, {st.iterations} iterations, impl={cfg.sim.impl}, "
             f"trunk={cfg.net.trunk}, daes={cfg.exploration.daes}, {where}")
     else:
@@ -524,7 +524,7 @@ def _run_stage(cfg, args, name, done, h, deadline, programs, arrays, stop, board
         on_save = lambda i, s: rundir.save_networks(args.out, name, i, s, cfg)  # noqa: E731
         log(f"training {rundir.DESCRIPTION[name]}: {st.n_worlds} worlds of {st.min_objects}-{st.max_objects} "
             f"objects, {st.iterations} iterations, decision threshold {float(state.threshold):.4f}, "
-            f"devices={jax.devices()}")
+            f"device={jax.devices()[0]}")
     try:
         state, it, status, grasps, recent = run_chunks(name, fns.program, state, done, st.iterations, out_dir,
                                                        args, deadline, finite, loss_key, on_save, stop, board,
