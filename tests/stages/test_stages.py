@@ -22,6 +22,7 @@ from vags_jax.stages import checkpoint, ggcnn as ggcnn_stage, rundir as pipeline
 from vags_jax.stages import pipeline as fold
 from vags_jax.stages import requests
 from vags_jax.rl import replay
+from vags_jax.policies import rate_gate
 from vags_jax import config as C
 from vags_jax.nets.ggcnn import init_ggcnn
 from vags_jax.stages.stage1 import METRICS, Stage1
@@ -320,6 +321,14 @@ def test_the_pipeline_measures_the_rate_gate_table_that_eval_plays(runs, tmp_pat
     for direct, moved, extra, value in zip(t["direct"], t["moved"], t["extra_seconds"], t["move_value"]):
         assert 0 <= direct <= 1 and 0 <= moved <= 1
         assert value == pytest.approx(moved - direct - t["rate"] * extra)
+    # The per-state rows it was fit on (RUN/gate_states.npz) refit to the same table; each branch
+    # knocks off a count of objects (none or more).
+    rows = np.load(os.path.join(full, "gate_states.npz"))
+    assert rows["p_direct"].shape == (t["live_states"],)
+    assert ((rows["direct_lost"] >= 0) & (rows["moved_lost"] >= 0)).all()
+    refit = rate_gate.fit(rows["p_direct"], rows["direct_success"], rows["direct_seconds"], rows["moved_success"],
+                          rows["moved_seconds"], 2, lost_direct=rows["direct_lost"], lost_moved=rows["moved_lost"])
+    assert refit.move_value == pytest.approx(tuple(t["move_value"])) and refit.lost_moved == pytest.approx(tuple(t["lost_moved"]))
     out = str(tmp_path / "rate.json")
     assert eval_cli.main(["--run", full, "--groups", "1", "--rounds", "2", "--set", "vags.gate=rate", "--out", out]) == 0
     with open(out) as f:

@@ -21,6 +21,7 @@ Shapes: B = ``worlds``.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 
@@ -38,6 +39,7 @@ from vags_jax.policies.decision import VagsNets, close_view_grasp, decide, value
 from vags_jax.stages import checkpoint, rundir
 
 PROG = "python -m vags_jax.stages.gate_measure"
+STATES_FILE = "gate_states.npz"
 
 
 def make_collect(cfg, env: VagsEnv, nets: VagsNets):
@@ -96,7 +98,8 @@ def due(run_dir: str, cfg) -> bool:
 
 def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=print, programs=None,
             count_lost=None):
-    """The gate table of a trained run (stage 3's networks, else stage 2's) -> (GateTable, meta).
+    """The gate table of a trained run (stage 3's networks, else stage 2's) -> (GateTable, meta,
+    states): ``states`` the (N,) per-state arrays of the live states the table was fit on.
     worlds / steps / bins / seed / count_lost default to the run's ``gate_table`` config; programs: a
     ``driver.Programs`` whose compiled collect step is reused (train.py's pipeline)."""
     run_cfg = checkpoint.load_config(run_dir)
@@ -127,21 +130,32 @@ def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=pri
     live = rows["live"].astype(bool)
     rows = {k: v[live] for k, v in rows.items()}
     tm = MotionTimeModel.from_config(cfg)
-    table = rate_gate.fit(rows["p_direct"], rows["direct_success"], seconds(rows, "direct", tm),
-                          rows["moved_success"], seconds(rows, "moved", tm), bins,
+    rows["direct_seconds"], rows["moved_seconds"] = seconds(rows, "direct", tm), seconds(rows, "moved", tm)
+    table = rate_gate.fit(rows["p_direct"], rows["direct_success"], rows["direct_seconds"],
+                          rows["moved_success"], rows["moved_seconds"], bins,
                           lost_direct=rows["direct_lost"], lost_moved=rows["moved_lost"], count_lost=count_lost)
     meta = {"networks": networks.source, "worlds": worlds, "steps": steps, "seed": seed,
             "objects": [stage.min_objects, stage.max_objects], "live_states": int(live.sum()),
             "viewpoint": cfg.vags.viewpoint, "local_planner": cfg.vags.local_planner,
             "lost": rate_gate.paired_lost(table, rows["p_direct"], rows["direct_lost"], rows["moved_lost"]),
             "wall_s": round(time.time() - t0, 1), "device": str(jax.devices()[0])}
-    return table, meta
+    states = {k: rows[k] for k in ("p_direct", "direct_success", "moved_success", "direct_lost", "moved_lost",
+                                   "direct_seconds", "moved_seconds")}
+    return table, meta, states
+
+
+def save_states(run_dir: str, states: dict) -> str:
+    """RUN/gate_states.npz: the per-state rows a table was fit on (``measure``), for analysis."""
+    path = os.path.join(run_dir, STATES_FILE)
+    np.savez(path, **states)
+    return path
 
 
 def measure_into(run_dir: str, log=print, programs=None, **kw):
-    """``measure`` then ``rate_gate.save`` into RUN/gate.json -> (its path, GateTable, meta);
-    logs the table."""
-    table, meta = measure(run_dir, log=log, programs=programs, **kw)
+    """``measure`` then ``rate_gate.save`` into RUN/gate.json (and its states into
+    RUN/gate_states.npz) -> (its path, GateTable, meta); logs the table."""
+    table, meta, states = measure(run_dir, log=log, programs=programs, **kw)
+    save_states(run_dir, states)
     for line in (rate_gate.describe(table) + "\n" + rate_gate.describe_lost(meta["lost"])).splitlines():
         log(line)
     return rate_gate.save(run_dir, table, meta), table, meta
@@ -164,14 +178,14 @@ def main(argv=None) -> int:
             print(f"{PROG}: --{name} must be at least 1, got {getattr(args, name)}", file=sys.stderr)
             return 2
     try:
-        table, meta = measure(args.run, args.worlds, args.steps, args.bins, args.seed,
+        table, meta, states = measure(args.run, args.worlds, args.steps, args.bins, args.seed,
                               log=lambda m: print(m, file=sys.stderr, flush=True), count_lost=args.count_lost)
     except (ValueError, checkpoint.CheckpointError, FileNotFoundError) as e:
         print(f"{PROG}: {e}", file=sys.stderr)
         return 2
     print(rate_gate.describe(table))
     print(rate_gate.describe_lost(meta["lost"]))
-    print(f"wrote {rate_gate.save(args.run, table, meta)}")
+    print(f"wrote {rate_gate.save(args.run, table, meta)} and {save_states(args.run, states)}")
     return 0
 
 
