@@ -263,7 +263,9 @@ def test_eval_vags_sweep_csv_and_record(runs, tmp_path):
     cache the first filled) and gives the same overall figures."""
     full, _ = runs
     out, rec = str(tmp_path / "vags.json"), str(tmp_path / "pictures")
-    err = _eval_py(["--run", full, "--groups", "1,2", "--rounds", "2", "--out", out,
+    # One round per group: the benchmark, its sweep and --record (the first round of each
+    # group) then all play the same 2 worlds, and --record reuses the benchmark's reset.
+    err = _eval_py(["--run", full, "--groups", "1,2", "--rounds", "1", "--out", out,
                     "--threshold-sweep=-1000:1000:2000", "--quantile-sweep", "0:1:1", "--record", rec])
     assert "evaluating vags (" in err and "stage3 step 4" in err
     with open(out) as f:
@@ -291,7 +293,7 @@ def test_eval_vags_sweep_csv_and_record(runs, tmp_path):
     # Both evaluations run in new processes: in this one the text of a program depends on what it
     # traced before (the pipeline and its gate table; bench/RESULTS.md, "Compile cache").
     path = str(tmp_path / "second.json")
-    _eval_py(["--run", full, "--groups", "1,2", "--rounds", "2", "--out", path])
+    _eval_py(["--run", full, "--groups", "1,2", "--rounds", "1", "--out", path])
     with open(path) as f:
         again = json.load(f)
     assert again["compile"]["compiled"] == 0 and again["compile"]["loaded"] > 0, again["compile"]
