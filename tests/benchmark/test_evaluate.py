@@ -196,10 +196,12 @@ def test_random_and_gdnet_policies_on_maps():
 
 @pytest.fixture(scope="module")
 def tiny_eval(tiny_cfg):
+    # One round per group: a batch of 2 worlds, the size of test_batched_groups_...'s reset, so
+    # that both use one compiled reset of the groups.
     cfg = C.replace(tiny_cfg, **{"benchmark.max_attempts_extra": 1})
     ev = E.Evaluator(cfg)
     policy = P.make_policy("heuristic", cfg)
-    report = E.evaluate(cfg, policy, groups=(1, 2), rounds=2, seed=0, evaluator=ev)
+    report = E.evaluate(cfg, policy, groups=(1, 2), rounds=1, seed=0, evaluator=ev)
     return cfg, ev, policy, report
 
 
@@ -232,7 +234,7 @@ def test_tiny_heuristic_evaluation_is_sane(tiny_eval):
 def test_tiny_evaluation_is_reproducible(tiny_eval):
     cfg, ev, policy, report = tiny_eval
     assert report["batch_groups"]
-    again = ev.run_groups(policy, 0, (1, 2), 2)
+    again = ev.run_groups(policy, 0, (1, 2), 1)
     for out, k in zip(again, ("1", "2")):  # (json: NaN scores compare equal as text)
         assert json.dumps(out.to_json()) == json.dumps(report["outcomes"][k])
 
@@ -265,7 +267,7 @@ def test_seeds_write_one_report_per_seed_from_one_compiled_evaluator(tiny_eval, 
     monkeypatch.setattr(E, "Evaluator", evaluator)
     sets = [f"{k}={v}" for k, v in {**TINY_TEST_OVERRIDES, "benchmark.max_attempts_extra": 1}.items()]
     out = str(tmp_path / "seed{seed}" / "eval.json")
-    assert eval_cli.main(["--config", "tiny", "--policy", "heuristic", "--groups", "1,2", "--rounds", "2",
+    assert eval_cli.main(["--config", "tiny", "--policy", "heuristic", "--groups", "1,2", "--rounds", "1",
                           "--seeds", "0,5", "--out", out, "--set"] + sets) == 0
     assert len(built) == 1
     reports = {}
