@@ -60,8 +60,8 @@ def test_sharded_update_equals_the_one_device_update():
 def test_sharded_env_step_equals_the_unsharded_step_per_world():
     """One grasp step of 2 worlds (physics, render, heightmaps, bookkeeping) from the same start,
     unsharded and with one world per device in the data-parallel layout.  Per world: the same
-    grasp outcome, objects left, attempt count and colour heightmap; joint positions within
-    2e-3 and heights within 5 mm.  Not bit for bit: the per-device program (a batch of 1 under
+    grasp outcome, objects left and attempt count; joint positions within 2e-3, heights within
+    5 mm, and the same colour heightmap but at object edges.  Not bit for bit: the per-device program (a batch of 1 under
     shard_map) is compiled apart from the batch of 2, and half a second of contacts in the lift
     grows their rounding differences (measured: 2.2e-4 in joint positions, 1.0 mm in heights;
     one world jitted alone, unsharded, differed from the sharded step by as much, 4.9e-4 and
@@ -70,7 +70,10 @@ def test_sharded_env_step_equals_the_unsharded_step_per_world():
     r = _worker("env")
     assert r["success_one"] == r["success_two"] and r["remaining"][0] == r["remaining"][1], r
     assert r["qpos_moved"] > 0.1, r  # the grasp lifted an object
-    assert r["qpos"] < 2e-3 and r["height"] < 5e-3 and r["attempts"] == 0 and r["color_cells"] == 0, r
+    assert r["qpos"] < 2e-3 and r["height"] < 5e-3 and r["attempts"] == 0, r
+    # Colour: equal except on boundaries between surfaces, which a sub-millimetre shift can move
+    # across a cell (seen on one 2-core machine: 8 cells), and never in more than 1 % of the cells.
+    assert r["color_cells_off_edges"] == 0 and r["color_cells"] <= r["cells"] // 100, r
 
 
 def test_train_py_devices_2_trains_checkpoints_and_resumes(tmp_path):
