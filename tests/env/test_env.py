@@ -109,3 +109,17 @@ def test_observe_with_depth_noise(tiny_cfg, state):
     assert both.mean() > 0.5 and np.median(np.abs(h - ref)[both]) < 0.003
     obj = both & (ref > 0.02)  # object tops: still there under noise (edges may lose cells)
     assert obj.any() and np.median(np.abs(h - ref)[obj]) < 0.003 and np.abs(h - ref)[obj].mean() < 0.01
+
+
+def test_knocked_off_counts_objects_that_left_without_a_grasp():
+    # Three worlds of 3 object slots.  World 0: one object grasped (3 -> 2 on the table), none
+    # knocked off; world 1: a failed grasp and one object gone (2 -> 1); world 2: grasped one
+    # and another fell off (3 -> 1).
+    from types import SimpleNamespace as NS
+
+    import jax.numpy as jnp
+
+    before = NS(sim=NS(active=jnp.array([[1, 1, 1], [1, 1, 0], [1, 1, 1]], bool)))
+    after = NS(sim=NS(active=jnp.array([[1, 1, 0], [1, 0, 0], [1, 0, 0]], bool)))
+    lost = VagsEnv.knocked_off(before, after, jnp.array([True, False, True]))
+    assert np.asarray(lost).tolist() == [0, 1, 1]

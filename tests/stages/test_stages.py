@@ -323,8 +323,8 @@ def test_the_pipeline_measures_the_rate_gate_table_that_eval_plays(runs, tmp_pat
     for direct, moved, extra, value in zip(t["direct"], t["moved"], t["extra_seconds"], t["move_value"]):
         assert 0 <= direct <= 1 and 0 <= moved <= 1
         assert value == pytest.approx(moved - direct - t["rate"] * extra)
-    # The per-state rows it was fit on (RUN/gate_states.npz) refit to the same table; each branch
-    # knocks off a count of objects (none or more).
+    # The per-state rows it was fit on (RUN/gate_states.npz) refit to the same table; objects
+    # knocked off are counts, never negative.
     rows = np.load(os.path.join(full, "gate_states.npz"))
     assert rows["p_direct"].shape == (t["live_states"],)
     assert ((rows["direct_lost"] >= 0) & (rows["moved_lost"] >= 0)).all()

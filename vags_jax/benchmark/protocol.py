@@ -158,8 +158,7 @@ class Evaluator:
             n_push = c.pushes + (push & ~keep).astype(jnp.int32)
             moved = (attempt.motions > 1) & ~keep
             views = c.viewpoints + moved.astype(jnp.int32)
-            lost = env.n_remaining(c.env) - env.n_remaining(s2) - (res.success & ~keep).astype(jnp.int32)
-            lost_after_move = c.lost_after_move + jnp.where(moved, lost, 0)
+            lost_after_move = c.lost_after_move + jnp.where(moved, env.knocked_off(c.env, s2, res.success), 0)
             scores = c.scores
             if attempt.score is not None:
                 score = jnp.where(keep, jnp.nan, attempt.score.astype(jnp.float32))

@@ -130,6 +130,12 @@ class VagsEnv(Observation):
         """(B,) int32 objects still on the table."""
         return state.sim.active.sum(axis=1).astype(jnp.int32)
 
+    @classmethod
+    def knocked_off(cls, before: EnvState, after: EnvState, success: jax.Array) -> jax.Array:
+        """(B,) int32 objects that left the table between ``before`` and ``after`` without being
+        grasped (success (B,) bool: one object grasped)."""
+        return cls.n_remaining(before) - cls.n_remaining(after) - success.astype(jnp.int32)
+
     def round_over(self, state: EnvState, extra: Optional[int] = None) -> jax.Array:
         """(B,) bool: table clear, or the round's attempt budget (``max_attempts``) is used up."""
         return (self.n_remaining(state) == 0) | (state.attempts >= self.max_attempts(state.sim.n_objects, extra))

@@ -54,8 +54,7 @@ def make_collect(cfg, env: VagsEnv, nets: VagsNets):
     def branch(name, state, attempt):
         after, r = env.step_attempt(state, attempt, observe=False)
         back = jnp.where(r.success, 0.0, return_distance(cfg, attempt.position, start))
-        lost = env.n_remaining(state) - env.n_remaining(after) - r.success.astype(jnp.int32)
-        return {f"{name}_success": r.success, f"{name}_lost": lost, f"{name}_motions": attempt.motions,
+        return {f"{name}_success": r.success, f"{name}_lost": env.knocked_off(state, after, r.success), f"{name}_motions": attempt.motions,
                 f"{name}_travel": r.approach + r.descend + r.lift + attempt.view_travel, f"{name}_back": back}
 
     def step(params, key, state):
@@ -151,14 +150,23 @@ def save_states(run_dir: str, states: dict) -> str:
     return path
 
 
-def measure_into(run_dir: str, log=print, programs=None, **kw):
-    """``measure`` then ``rate_gate.save`` into RUN/gate.json (and its states into
-    RUN/gate_states.npz) -> (its path, GateTable, meta); logs the table."""
-    table, meta, states = measure(run_dir, log=log, programs=programs, **kw)
+def describe(table, meta) -> str:
+    """The table's bins and the objects each branch knocked off, as text."""
+    return rate_gate.describe(table) + "\n" + rate_gate.describe_lost(meta["lost"])
+
+
+def save_all(run_dir: str, table, meta, states) -> str:
+    """RUN/gate.json (``rate_gate.save``) and RUN/gate_states.npz -> the path of gate.json."""
     save_states(run_dir, states)
-    for line in (rate_gate.describe(table) + "\n" + rate_gate.describe_lost(meta["lost"])).splitlines():
+    return rate_gate.save(run_dir, table, meta)
+
+
+def measure_into(run_dir: str, log=print, programs=None, **kw):
+    """``measure`` then ``save_all`` -> (RUN/gate.json's path, GateTable, meta); logs the table."""
+    table, meta, states = measure(run_dir, log=log, programs=programs, **kw)
+    for line in describe(table, meta).splitlines():
         log(line)
-    return rate_gate.save(run_dir, table, meta), table, meta
+    return save_all(run_dir, table, meta, states), table, meta
 
 
 def main(argv=None) -> int:
@@ -179,13 +187,12 @@ def main(argv=None) -> int:
             return 2
     try:
         table, meta, states = measure(args.run, args.worlds, args.steps, args.bins, args.seed,
-                              log=lambda m: print(m, file=sys.stderr, flush=True), count_lost=args.count_lost)
+                                      log=lambda m: print(m, file=sys.stderr, flush=True), count_lost=args.count_lost)
     except (ValueError, checkpoint.CheckpointError, FileNotFoundError) as e:
         print(f"{PROG}: {e}", file=sys.stderr)
         return 2
-    print(rate_gate.describe(table))
-    print(rate_gate.describe_lost(meta["lost"]))
-    print(f"wrote {rate_gate.save(args.run, table, meta)} and {save_states(args.run, states)}")
+    print(describe(table, meta))
+    print(f"wrote {save_all(args.run, table, meta, states)} and {STATES_FILE} beside it")
     return 0
 
 
