@@ -29,7 +29,8 @@ over its push and grasp maps; a push is one motion and no grasp attempt), random
 heuristic (see vags_jax/policies/catalog.py).  --no-viewpoint runs VAGS with
 its GDNet alone (threshold -inf: the paper's "w/o VANet" ablation).  --threshold-sweep A:B:STEP
 evaluates VAGS at each absolute threshold (paper Fig. 6), --quantile-sweep A:B:STEP at the
-quantiles of the largest GDNet Q that VAGS saw at its decisions in the main run (our Q scale
+quantiles of the gate's scores that VAGS saw at its decisions in the main run (GDNet's largest Q
+for the paper's "q" gate, minus a move's measured value for "rate"; our Q scale
 need not match the paper's); the sweep goes to RUN/eval_vags_sweep.json and .csv.  Groups, rounds, the attempt budget and the robot-time
 model of picks per hour come from the config's benchmark section (--set benchmark.rounds=20).  The configuration is the run's config.json
 (or the --config preset) with --set overrides applied; the scene must hold the largest group

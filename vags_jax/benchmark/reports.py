@@ -222,7 +222,7 @@ def plot_sweep(rows: list[dict], path: str, title: Optional[str] = None) -> None
                 axes[0].annotate(f"q={r['quantile']:g}", (x, _percent(r["overall"]["grasp_success_rate"])),
                                  textcoords="offset points", xytext=(4, 4), fontsize=8)
     for ax, name in zip(axes, ("grasp success (%)", "viewpoint moves (% of attempts)")):
-        ax.set_xlabel("decision threshold (the gate's score: GDNet's Q or the success gate's)")
+        ax.set_xlabel("decision threshold (the gate's score)")
         ax.set_ylabel(name)
         ax.set_ylim(-2, 102)
         ax.grid(True, alpha=0.3)

@@ -1,5 +1,6 @@
 """Threshold sweeps of the ``vags`` policy (paper Fig. 6): the benchmark at each absolute
-threshold, and at quantiles of the largest GDNet Q seen at the main run's decisions."""
+threshold, and at quantiles of the gate's scores seen at the main run's decisions
+(``policies.decision.gate_score``: GDNet's largest Q for the "q" gate)."""
 from __future__ import annotations
 
 import dataclasses
@@ -12,11 +13,8 @@ from vags_jax.benchmark import protocol as E
 
 
 def run_sweep(cfg, ev, pol, report, sweep_abs, sweep_q, groups, rounds, seed, time_model, log) -> list[dict]:
-    """The benchmark at each threshold (absolute values, then quantiles of the largest GDNet Q
-    seen at the main run's decisions) -> rows for report_files.write_sweep_csv."""
-
-
-
+    """The benchmark at each threshold (absolute values, then quantiles of the gate's scores
+    seen at the main run's decisions) -> rows for reports.write_sweep_csv."""
     scores = np.concatenate([np.asarray(o["scores"], np.float64).ravel() for o in report["outcomes"].values()])
     scores = scores[np.isfinite(scores)]
     points = [("absolute", None, t) for t in sweep_abs]
