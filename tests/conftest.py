@@ -69,15 +69,3 @@ def programs():
 
     return driver.Programs()
 
-
-@pytest.fixture(scope="module", autouse=True)
-def _fresh_traces():
-    """JAX's caches cleared at the start of every test module, so that the module's programs
-    lower to the text a fresh process gives them and the compile cache serves what another
-    module, worker or subprocess compiled.  Without it a second ``VagsEnv`` of one config in a
-    process lowers its reset to other text than the first (JAX reuses traces of the first
-    environment's calls; tests/README.md, "Suite time") and compiles it again: VPG's stage
-    fixture after benchmark/test_evaluate.py compiled its reset (16.6 s) instead of loading it
-    (0.9 s).  A jitted function kept across modules (the ``programs`` fixture) traces again and
-    loads its program from the cache."""
-    jax.clear_caches()
