@@ -50,16 +50,21 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import time
 
-import jax
-import numpy as np
+_T0 = time.perf_counter()  # before the heavy imports: the process clock of the report's "process_s"
 
-from vags_jax import cli
-from vags_jax.benchmark import compare as CMP
-from vags_jax.benchmark import metrics as M
-from vags_jax.benchmark import protocol as E
-from vags_jax.benchmark import reports, requests, sweep
-from vags_jax.benchmark.record_rounds import record_rounds
+import jax  # noqa: E402
+import numpy as np  # noqa: E402
+
+from vags_jax import cli  # noqa: E402
+from vags_jax.benchmark import compare as CMP  # noqa: E402
+from vags_jax.benchmark import metrics as M  # noqa: E402
+from vags_jax.benchmark import protocol as E  # noqa: E402
+from vags_jax.benchmark import reports, requests, sweep  # noqa: E402
+from vags_jax.benchmark.record_rounds import record_rounds  # noqa: E402
+
+_T_IMPORTED = time.perf_counter()
 
 PROG = "eval.py"
 
@@ -137,7 +142,12 @@ def main_compare(args) -> int:
     return 0
 
 
+def _since(t: float) -> float:
+    return round(time.perf_counter() - t, 2)
+
+
 def main(argv=None) -> int:
+    t_main = time.perf_counter()
     args = parse_args(argv)  # bad flags: one line, exit code 2
     cli.quiet_third_party(args.verbose)
     error = cli.use_compile_cache(PROG, args.cache_dir)
@@ -155,11 +165,19 @@ def main(argv=None) -> int:
     log = lambda s: print(s, file=sys.stderr, flush=True)  # noqa: E731
     source = f" ({args.run}, checkpoint {step})" if step is not None else (
         f" ({args.run}, {networks.source})" if networks is not None else "")
+    t_inputs = time.perf_counter()
     log(f"evaluating {name}{source}: groups {groups}, {rounds} rounds each, impl={cfg.sim.impl}, "
         f"devices={jax.devices()}")
+    t_devices = time.perf_counter()
     ev = E.Evaluator(cfg)
+    t_env = time.perf_counter()
     pol = requests.policy_of(plan, args)
-    extra = {"run": args.run, "checkpoint_step": step}
+    # Where the process's seconds went before the first round (imports: only for a new process).
+    process = {"imports_s": round(_T_IMPORTED - _T0, 2) if argv is None else None,
+               "inputs_s": round(t_inputs - t_main, 2), "devices_s": round(t_devices - t_inputs, 2),
+               "environment_s": round(t_env - t_devices, 2), "policy_s": _since(t_env)}
+    log("ready in " + ", ".join(f"{k[:-2]} {v} s" for k, v in process.items() if v is not None))
+    extra = {"run": args.run, "checkpoint_step": step, "process_s": process}
     overall = {}
     for seed in plan.seeds:  # one Evaluator: every seed reuses the programs the first one compiled
         if args.seeds is not None:
@@ -200,6 +218,7 @@ def main(argv=None) -> int:
         log(f"wrote {args.plot}")
     if args.record:
         record_rounds(cfg, ev, pol.params, report["seed"], groups, args.record_rounds, rounds, args.record, log)
+    log(f"done: {_since(_T0 if argv is None else t_main)} s in this process")
     return 0
 
 

@@ -328,14 +328,16 @@ def _abstract(tree: Any) -> dict[str, Any]:
     return out
 
 
-def read(run_dir: str, step: Optional[int] = None, parts: Optional[list[str]] = None):
+def read(run_dir: str, step: Optional[int] = None, parts: Optional[list[str]] = None,
+         saved: Optional[dict] = None):
     """The arrays of checkpoint ``step`` (default: the latest) as saved, as host NumPy arrays:
     ``({part: {leaf: ndarray}}, step)``; only ``parts`` when given.  Needs no target, so it can
-    run before the state is built.  CheckpointError when there is no checkpoint or its files are
-    damaged (naming the step directory and what to do)."""
+    run before the state is built.  ``saved``: the step's metadata when the caller has read it
+    (``_saved_tree``).  CheckpointError when there is no checkpoint or its files are damaged
+    (naming the step directory and what to do)."""
     mngr, step = _open_step(run_dir, step)
     try:
-        saved = _saved_tree(run_dir, step)
+        saved = _saved_tree(run_dir, step) if saved is None else saved
         names = list(saved) if parts is None else list(parts)
         missing = [n for n in names if n not in saved]
         if missing:
@@ -429,6 +431,26 @@ def restore_part(run_dir: str, name: str, target: Any, step: Optional[int] = Non
     check_parts(run_dir, step, {name: target})
     arrays, step = read(run_dir, step, parts=[name])
     return _unflatten(target, {k: jax.numpy.asarray(v) for k, v in arrays[name].items()}), step
+
+
+def restore_parts(run_dir: str, targets: dict, step: Optional[int] = None,
+                  optional: tuple = ()) -> tuple[dict, int]:
+    """Several top-level parts at once, with one metadata read and one array read (a
+    ``restore_part`` per part reads the metadata twice and opens the checkpoint three times):
+    ``{name: target}`` -> ``({name: tree}, step)``.  A ``None`` target returns the part as saved
+    (``{leaf: ndarray}``, unchecked); a part in ``optional`` that the checkpoint lacks comes back
+    None.  Errors as for ``restore``; every target is checked before any array is read."""
+    mngr, step = _open_step(run_dir, step)
+    mngr.close()
+    saved = _saved_tree(run_dir, step)
+    names = [n for n in targets if n in saved or n not in optional]
+    _check_fits(run_dir, step, {n: _abstract(targets[n]) for n in names if targets[n] is not None}, saved)
+    arrays, step = read(run_dir, step, parts=names, saved=saved)
+    out = dict.fromkeys(targets)
+    for n in names:
+        out[n] = arrays[n] if targets[n] is None else _unflatten(
+            targets[n], {k: jax.numpy.asarray(v) for k, v in arrays[n].items()})
+    return out, step
 
 
 def tree_equal(a: Any, b: Any) -> bool:

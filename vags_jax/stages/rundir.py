@@ -145,11 +145,10 @@ def stage2_result(run_dir: str, cfg: Config, for_what: str = "stage 3"):
     """Stage 2's final (GDNet learner, VANet learner, success-net learner, threshold () float32)."""
     step = _need(run_dir, cfg, "stage2", for_what)
     d = stage_dir(run_dir, "stage2")
-    gd, _ = checkpoint.restore_part(d, "gdnet", learner_target(cfg, "gdnet"), step)
-    va, _ = checkpoint.restore_part(d, "vanet", learner_target(cfg, "vanet"), step)
-    su, _ = checkpoint.restore_part(d, "success", learner_target(cfg, "gdnet"), step)
-    thr, _ = checkpoint.restore_part(d, "threshold", np.zeros((), np.float32), step)
-    return gd, va, su, jnp.asarray(thr, jnp.float32)
+    gdnet = learner_target(cfg, "gdnet")  # the success net has GDNet's architecture
+    got, _ = checkpoint.restore_parts(d, {"gdnet": gdnet, "vanet": learner_target(cfg, "vanet"), "success": gdnet,
+                                          "threshold": np.zeros((), np.float32)}, step)
+    return got["gdnet"], got["vanet"], got["success"], jnp.asarray(got["threshold"], jnp.float32)
 
 
 @struct.dataclass
@@ -220,16 +219,15 @@ def load_vags(run_dir: str, cfg: Optional[Config] = None, step: Optional[int] = 
             f"run {run_dir} has no VANet yet (no stage 2 or 3 networks): train it with "
             f"python train.py --out {run_dir} --resume (or --stage stage2)")
     d = networks_dir(run_dir, found[0])
-    gd, s = checkpoint.restore_part(d, "gdnet", _vars_target(cfg, "gdnet"), step)
-    va, _ = checkpoint.restore_part(d, "vanet", _vars_target(cfg, "vanet"), s)
-    thr, _ = checkpoint.restore_part(d, "threshold", np.zeros((), np.float32), s)
-    su = cal = None
-    parts = checkpoint.saved_parts(d, s)
-    if "success" in parts:
-        su, _ = checkpoint.restore_part(d, "success", _vars_target(cfg, "gdnet"), s)
-    if "calibration" in parts:  # (3,); (2,) in runs from before the mean success after a move was kept
-        arrays, _ = checkpoint.read(d, s, parts=["calibration"])
-        cal = jnp.asarray(np.ravel(next(iter(arrays["calibration"].values()))), jnp.float32)
+    gdnet = _vars_target(cfg, "gdnet")  # the success net has GDNet's architecture
+    # success: absent in runs from before the success net; calibration (3,), (2,) in runs from
+    # before the mean success after a move was kept, so it is read as saved.
+    got, s = checkpoint.restore_parts(d, {"gdnet": gdnet, "vanet": _vars_target(cfg, "vanet"),
+                                          "threshold": np.zeros((), np.float32), "success": gdnet,
+                                          "calibration": None}, step, optional=("success", "calibration"))
+    gd, va, thr, su = got["gdnet"], got["vanet"], got["threshold"], got["success"]
+    cal = None if got["calibration"] is None else jnp.asarray(
+        np.ravel(next(iter(got["calibration"].values()))), jnp.float32)
     gg = None
     if os.path.isdir(ggcnn_stage.ggcnn_dir(run_dir)):
         gg, _ = ggcnn_stage.load_ggcnn(run_dir)
@@ -247,8 +245,8 @@ def load_nbv(run_dir: str, cfg: Optional[Config] = None) -> VagsNetworks:
     if not (os.path.isdir(d) and checkpoint.checkpoint_steps(d)):
         raise checkpoint.CheckpointError(f"run {run_dir} has no NBV network yet: train it with "
                                          f"python train.py --out {run_dir} --stage nbv")
-    gd, s = checkpoint.restore_part(d, "gdnet", _vars_target(cfg, "gdnet"), None)
-    va, _ = checkpoint.restore_part(d, "vanet", _vars_target(cfg, "nbv"), s)
+    got, s = checkpoint.restore_parts(d, {"gdnet": _vars_target(cfg, "gdnet"), "vanet": _vars_target(cfg, "nbv")})
+    gd, va = got["gdnet"], got["vanet"]
     gg = None
     if os.path.isdir(ggcnn_stage.ggcnn_dir(run_dir)):
         gg, _ = ggcnn_stage.load_ggcnn(run_dir)
