@@ -155,10 +155,9 @@ def test_a_resume_in_a_new_process_loads_its_programs(pieces):
     """Stage 3 of the piecewise run resumed with programs built anew (as by a new train.py
     process, in the ``pieces`` fixture): the compile cache that the runs filled serves some of
     its programs.  (It runs one chunk, so its ``recompiled_chunks`` is empty by construction;
-    ``test_chunks_after_the_first_compile_nothing`` checks runs of several chunks.)  (Known gap, bench/RESULTS.md "Compile
-    cache": on CPU the chunk and one other program compile again, since JAX numbers the
-    functions it outlines by what the process traced before, so a program lowered after stages
-    1-2 and one lowered alone differ in text and in cache key.)"""
+    ``test_chunks_after_the_first_compile_nothing`` checks runs of several chunks.)  Since
+    ``vags_jax.lowering`` the chunk lowers to the same text whatever the process traced before,
+    so it loads (bench/RESULTS.md, "Resume on CPU loads its chunk")."""
     run = pieces["split"]
     assert "stage3's chunk of 2 iterations" in pieces["resume_err"]
     last = [r for r in _timings(run) if r["stage"] == "stage3"][-1]
