@@ -25,8 +25,9 @@ compile_cache.enable()
 
 
 class _CompileLog(logging.Handler):
-    """With VAGS_JAX_TEST_COMPILE_LOG=FILE: one line per JAX trace / lowering / XLA compile,
-    "test<TAB>what", appended to FILE (by every worker) -- to see which tests compile what."""
+    """With VAGS_JAX_TEST_COMPILE_LOG=FILE: one line per JAX trace / lowering / XLA compile and
+    per persistent-cache hit or miss (with its key), "test<TAB>what", appended to FILE (by every
+    worker) -- to see which tests compile what, and which compile the same program."""
 
     def __init__(self, path):
         super().__init__()
@@ -34,7 +35,7 @@ class _CompileLog(logging.Handler):
 
     def emit(self, record):
         msg = record.getMessage()
-        if msg.startswith("Finished"):
+        if msg.startswith(("Finished", "Persistent compilation cache", "PERSISTENT COMPILATION CACHE")):
             with open(self.path, "a") as f:
                 f.write(f"{os.environ.get('PYTEST_CURRENT_TEST', '-')}\t{msg}\n")
 
@@ -42,6 +43,7 @@ class _CompileLog(logging.Handler):
 if os.environ.get("VAGS_JAX_TEST_COMPILE_LOG"):
     jax.config.update("jax_log_compiles", True)
     logging.getLogger("jax").addHandler(_CompileLog(os.environ["VAGS_JAX_TEST_COMPILE_LOG"]))
+    logging.getLogger("jax._src.compiler").setLevel(logging.DEBUG)  # cache misses are logged at DEBUG
 
 
 # The `tiny` preset, shrunk further for tests: 2 worlds, 1-2 objects, small replay.
