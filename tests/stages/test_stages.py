@@ -323,10 +323,11 @@ def test_the_pipeline_measures_the_rate_gate_table_that_eval_plays(runs, tmp_pat
         assert 0 <= direct <= 1 and 0 <= moved <= 1
         assert value == pytest.approx(moved - direct - t["rate"] * extra)
     # The per-state rows it was fit on (RUN/gate_states.npz) refit to the same table; objects
-    # knocked off are counts, never negative.
+    # knocked off are counts, never negative; every live state had 1..max_objects on the table.
     rows = np.load(os.path.join(full, "gate_states.npz"))
-    assert rows["p_direct"].shape == (t["live_states"],)
+    assert rows["p_direct"].shape == rows["objects"].shape == (t["live_states"],)
     assert ((rows["direct_lost"] >= 0) & (rows["moved_lost"] >= 0)).all()
+    assert ((rows["objects"] >= 1) & (rows["objects"] <= t["objects"][1])).all()
     refit = rate_gate.fit(rows["p_direct"], rows["direct_success"], rows["direct_seconds"], rows["moved_success"],
                           rows["moved_seconds"], 2, lost_direct=rows["direct_lost"], lost_moved=rows["moved_lost"])
     assert refit.move_value == pytest.approx(tuple(t["move_value"])) and refit.lost_moved == pytest.approx(tuple(t["lost_moved"]))

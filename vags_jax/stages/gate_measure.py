@@ -47,8 +47,9 @@ def make_collect(cfg, env: VagsEnv, nets: VagsNets):
     ``p_direct`` the success net's raw estimate at GDNet's argmax; for each branch ("direct",
     "moved") its ``success``, ``lost`` (objects that left the table without a grasp),
     ``motions``, ``travel`` (m, camera move + approach + descend + lift) and ``back`` (m, the
-    return to the global pose after a failure); ``live`` worlds with objects and no physics
-    error.  The next state follows the direct grasp."""
+    return to the global pose after a failure); ``objects`` (int32) on the table before the
+    attempt; ``live`` worlds with objects and no physics error.  The next state follows the
+    direct grasp."""
     start = jnp.asarray(cfg.camera.global_position, jnp.float32)
 
     def branch(name, state, attempt):
@@ -66,7 +67,7 @@ def make_collect(cfg, env: VagsEnv, nets: VagsNets):
         moved, _ = close_view_grasp(cfg, env, state, d.view, k_img, nets.gdnet_q(params["gdnet"]),
                                     params.get("ggcnn"), nets.ggcnn)
         out = {"p_direct": value_at(q_success, d.grasp),
-               "live": (env.n_remaining(state) > 0) & ~state.sim.error,
+               "objects": env.n_remaining(state), "live": (env.n_remaining(state) > 0) & ~state.sim.error,
                **branch("direct", state, direct), **branch("moved", state, moved)}
         nxt, _ = env.step_attempt(state, direct, k_obs if cfg.camera.noise.enabled else None)
         return nxt, out
@@ -139,7 +140,7 @@ def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=pri
             "lost": rate_gate.paired_lost(table, rows["p_direct"], rows["direct_lost"], rows["moved_lost"]),
             "wall_s": round(time.time() - t0, 1), "device": str(jax.devices()[0])}
     states = {k: rows[k] for k in ("p_direct", "direct_success", "moved_success", "direct_lost", "moved_lost",
-                                   "direct_seconds", "moved_seconds")}
+                                   "direct_seconds", "moved_seconds", "objects")}
     return table, meta, states
 
 
