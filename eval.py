@@ -36,7 +36,8 @@ model of picks per hour come from the config's benchmark section (--set benchmar
 (or the --config preset) with --set overrides applied; the scene must hold the largest group
 (scene.max_objects).  Prints a Markdown table with a legend of its columns under it
 (docs/benchmark.md, "Metrics", defines each) and writes the full report as JSON to --out, or
-to RUN/eval_<policy>[_step<N>].json, with a CSV beside it (one row per group and overall).
+to RUN/eval_<policy>[_step<N>].json, with a CSV beside it (one row per group and overall); the
+report's process_s says where the process spent its seconds before the first round.
 --plot PATH draws success and clearing against the number of objects (paper Fig. 7), one line per
 method (needs matplotlib: pip install 'vags_jax[plot]');
 with a sweep, the sweep's plot goes beside it (PATH stem + _sweep.png).  --record DIR writes
@@ -146,6 +147,15 @@ def _since(t: float) -> float:
     return round(time.perf_counter() - t, 2)
 
 
+def _startup_seconds(t_main: float, t_inputs: float, t_env: float, new_process: bool) -> dict:
+    """Where the process's seconds went before the first round (the report's ``process_s``):
+    imports (a new process only), checking the inputs and reading the networks (the device
+    starts here), building the environment, building the policy."""
+    return {"imports_s": round(_T_IMPORTED - _T0, 2) if new_process else None,
+            "inputs_s": round(t_inputs - t_main, 2), "environment_s": round(t_env - t_inputs, 2),
+            "policy_s": _since(t_env)}
+
+
 def main(argv=None) -> int:
     t_main = time.perf_counter()
     args = parse_args(argv)  # bad flags: one line, exit code 2
@@ -165,17 +175,13 @@ def main(argv=None) -> int:
     log = lambda s: print(s, file=sys.stderr, flush=True)  # noqa: E731
     source = f" ({args.run}, checkpoint {step})" if step is not None else (
         f" ({args.run}, {networks.source})" if networks is not None else "")
-    t_inputs = time.perf_counter()
     log(f"evaluating {name}{source}: groups {groups}, {rounds} rounds each, impl={cfg.sim.impl}, "
         f"devices={jax.devices()}")
-    t_devices = time.perf_counter()
+    t_inputs = time.perf_counter()
     ev = E.Evaluator(cfg)
     t_env = time.perf_counter()
     pol = requests.policy_of(plan, args)
-    # Where the process's seconds went before the first round (imports: only for a new process).
-    process = {"imports_s": round(_T_IMPORTED - _T0, 2) if argv is None else None,
-               "inputs_s": round(t_inputs - t_main, 2), "devices_s": round(t_devices - t_inputs, 2),
-               "environment_s": round(t_env - t_devices, 2), "policy_s": _since(t_env)}
+    process = _startup_seconds(t_main, t_inputs, t_env, new_process=argv is None)
     log("ready in " + ", ".join(f"{k[:-2]} {v} s" for k, v in process.items() if v is not None))
     extra = {"run": args.run, "checkpoint_step": step, "process_s": process}
     overall = {}
