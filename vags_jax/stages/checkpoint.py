@@ -426,17 +426,13 @@ def part_shapes(run_dir: str, step: int, name: str) -> list[tuple]:
 def restore_part(run_dir: str, name: str, target: Any, step: Optional[int] = None) -> tuple[Any, int]:
     """Restores only the top-level part ``name`` (e.g. "learner") into ``target``'s structure.
     Errors as for ``restore``."""
-    mngr, step = _open_step(run_dir, step)
-    mngr.close()
-    check_parts(run_dir, step, {name: target})
-    arrays, step = read(run_dir, step, parts=[name])
-    return _unflatten(target, {k: jax.numpy.asarray(v) for k, v in arrays[name].items()}), step
+    got, step = restore_parts(run_dir, {name: target}, step)
+    return got[name], step
 
 
 def restore_parts(run_dir: str, targets: dict, step: Optional[int] = None,
                   optional: tuple = ()) -> tuple[dict, int]:
-    """Several top-level parts at once, with one metadata read and one array read (a
-    ``restore_part`` per part reads the metadata twice and opens the checkpoint three times):
+    """Several top-level parts at once, with one metadata read and one array read:
     ``{name: target}`` -> ``({name: tree}, step)``.  A ``None`` target returns the part as saved
     (``{leaf: ndarray}``, unchecked); a part in ``optional`` that the checkpoint lacks comes back
     None.  Errors as for ``restore``; every target is checked before any array is read."""
