@@ -9,6 +9,7 @@ fails if JAX compiles anything while it runs (``no_compiling``), so each error p
 before any compiling.
 """
 import json
+import math
 import os
 import re
 import shutil
@@ -1307,6 +1308,9 @@ def test_the_rate_gate_without_a_table_for_the_runs_networks_says_how_to_measure
                             gate_table=rate_gate.load(run, "stage3 step 2"), source="stage3 step 2")
     with pytest.raises(ValueError, match=r"measure it with python -m vags_jax\.stages\.gate_measure --run RUN"):
         vags_params(stale, C.replace(C.tiny(), **{"vags.gate": "rate"}))
+    # GDNet alone (eval.py --no-viewpoint, threshold -inf) never moves, so it needs no table.
+    ablation = vags_params(stale, C.replace(C.tiny(), **{"vags.gate": "rate"}), threshold=-math.inf)
+    assert np.array_equal(np.asarray(ablation["gate_table"]), [[np.inf], [0.0]])
     code, line = _cli(gate_measure.main, ["--run", run, "--worlds", "0"], capsys)
     assert code == 2 and line == "python -m vags_jax.stages.gate_measure: --worlds must be at least 1, got 0"
     code, line = _cli(gate_measure.main, ["--run", str(tmp_path / "none")], capsys)

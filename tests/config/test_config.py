@@ -70,3 +70,10 @@ def test_viewpoint_is_checked():
     assert C.replace(C.Config(), **{"vags.viewpoint": "grasp"}).vags.viewpoint == "grasp"
     with pytest.raises(ValueError, match=r"vags\.viewpoint must be one of \('vanet', 'grasp'\), got 'random'"):
         C.replace(C.Config(), **{"vags.viewpoint": "random"})
+
+
+def test_stage3_gdnet_is_checked():
+    assert C.Config().vags.stage3_gdnet == "all"
+    assert C.replace(C.Config(), **{"vags.stage3_gdnet": "frozen"}).vags.stage3_gdnet == "frozen"
+    with pytest.raises(ValueError, match=r"vags\.stage3_gdnet must be one of \('all', 'direct', 'frozen'\), got 'none'"):
+        C.replace(C.Config(), **{"vags.stage3_gdnet": "none"})

@@ -215,6 +215,32 @@ def test_stage_hand_over(runs):
             not checkpoint.tree_equal(nets.vanet["params"], va2.params)
 
 
+@pytest.mark.parametrize("mode", ["frozen", "direct"])
+def test_stage3_gdnet_frozen_or_trained_on_direct_grasps_only(runs, programs, mode):
+    """``vags.stage3_gdnet``: stage 3 from the run's stage-2 networks, 4 iterations in memory.
+    "frozen": GDNet keeps stage 2's (= stage 1's) variables while the success net learns, and
+    every attempt (direct or after a move) goes into GDNet's replay, as in stage 2.  "direct":
+    GDNet learns, and its replay holds the direct grasps only (none on the fused close-view maps)."""
+    full, _ = runs
+    base = checkpoint.load_config(full)
+    cfg = C.replace(base, **{"vags.stage3_gdnet": mode})
+    gd2, va2, su2, thr2 = pipeline.stage2_result(full, base)
+    program = vags_stages.VagsStage(cfg, 3, programs.env(base))  # the env does not depend on the mode
+    state, metrics = fold.run_stage(fold.stage_fns("stage3", program), program.init(
+        pipeline.stage_key(cfg, "stage3"), gd2, None, va2, thr2, su2), 4, chunk=4)
+    m = {k: np.asarray(v) for k, v in metrics[0].items()}
+    assert m["updates"].sum() > 0 and m["attempts"].sum() > 0
+    direct = np.round((1 - m["view_share"]) * m["attempts"]).sum()
+    assert 0 < direct < m["attempts"].sum(), "the test needs both direct grasps and moves"
+    assert not checkpoint.tree_equal(state.success.params, su2.params), "the success net did not learn"
+    if mode == "frozen":
+        assert checkpoint.tree_equal(state.gdnet, gd2), "a frozen GDNet changed in stage 3"
+        assert (m["loss_gdnet"] == 0).all() and int(state.gdnet_replay.size) == m["attempts"].sum()
+    else:
+        assert not checkpoint.tree_equal(state.gdnet.params, gd2.params), "GDNet did not learn in stage 3"
+        assert int(state.gdnet_replay.size) == direct, "a grasp on a fused map reached GDNet's replay"
+
+
 def _saved_equal(saved: dict, tree) -> bool:
     """Arrays of a checkpoint part (``checkpoint.read``) equal the non-empty leaves of ``tree``."""
     leaves = [np.asarray(x) for x in jax.tree.leaves(tree) if np.size(x) > 0]

@@ -322,7 +322,8 @@ def prepare_eval(args) -> SimpleNamespace:
             raise ValueError("give the speed once: --speed or --set benchmark.speed=...")
         overrides["benchmark.speed"] = args.speed
     vpg_variables = vpg_step = None
-    if policy == "vags" and args.run and overrides.get("vags.gate") == "rate" and rate_gate.load(args.run) is None:
+    if (policy == "vags" and args.run and overrides.get("vags.gate") == "rate" and not args.no_viewpoint
+            and rate_gate.load(args.run) is None):  # --no-viewpoint never moves: it needs no table
         raise ValueError(f"vags.gate=rate needs the run's measured gate table, and {args.run} has no "
                          f"{rate_gate.GATE_FILE}: measure it with python -m vags_jax.stages.gate_measure --run RUN")
     if policy == "vpg":  # VPG's own config and networks (RUN/vpg): no VPG in the run, damaged files

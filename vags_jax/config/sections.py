@@ -645,6 +645,7 @@ VAGS_GATES = ("success", "q", "rate")
 VAGS_VIEW_REWARDS = ("success", "eq5")
 VAGS_VIEW_ESTIMATES = ("mean", "vanet")
 VAGS_VIEWPOINTS = ("vanet", "grasp")
+VAGS_STAGE3_GDNET = ("all", "direct", "frozen")
 
 
 @dataclass(frozen=True)
@@ -684,6 +685,11 @@ class Vags:
       "eq5": paper eq. 5 as reconstructed: ``success_reward`` on success plus ``view_bonus``
       when GDNet's largest Q on the next global view exceeds the one before the move.
     vanet_gamma: VANet's discount (0: its Q estimates the success of the grasp after the move).
+    stage3_gdnet: what GDNet learns from in stage 3.  "all": its direct grasps on the global
+      views and, with the "gdnet" planner, its grasps on the fused close-view maps (as the
+      paper trains GDNet and VANet together); "direct": the global-view grasps only; "frozen":
+      GDNet keeps stage 1's weights and explores no grasps (stage 3 trains VANet and the
+      success net).  Why it matters: bench/RESULTS.md, "Viewpoints that pay, eleventh look".
     train_ggcnn: the pipeline (train.py with no --stage) also trains GG-CNN when local_planner
       is "gdnet", which does not use it (for eval.py --policy ggcnn / ggcnn-close); with "ggcnn"
       it always does.  ``train.py --stage ggcnn --out RUN`` adds one to a run later.
@@ -702,6 +708,7 @@ class Vags:
     vanet_gamma: float = 0.0
     success_reward: float = 1.0
     view_bonus: float = 1.0
+    stage3_gdnet: str = "all"
     train_ggcnn: bool = False
 
     def __post_init__(self):
@@ -712,6 +719,8 @@ class Vags:
                f"Vags.view_estimate must be one of {VAGS_VIEW_ESTIMATES}, got {self.view_estimate!r}")
         _check(self.viewpoint in VAGS_VIEWPOINTS,
                f"Vags.viewpoint must be one of {VAGS_VIEWPOINTS}, got {self.viewpoint!r}")
+        _check(self.stage3_gdnet in VAGS_STAGE3_GDNET,
+               f"Vags.stage3_gdnet must be one of {VAGS_STAGE3_GDNET}, got {self.stage3_gdnet!r}")
         _check(self.view_reward in VAGS_VIEW_REWARDS,
                f"Vags.view_reward must be one of {VAGS_VIEW_REWARDS}, got {self.view_reward!r}")
         if self.threshold is not None:

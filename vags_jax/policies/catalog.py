@@ -161,12 +161,13 @@ def nbv_params(networks, cfg: Config) -> dict:
 def vags_params(networks, cfg: Config, threshold=None) -> dict:
     """The ``vags`` policy's params from ``pipeline.VagsNetworks``: the gate's threshold is the
     run's ("q" gate) or ``-vags.move_cost`` ("success" gate), unless ``threshold`` overrides it
-    (e.g. ``-inf`` for the VANet ablation).  ValueError when the config's gate or close-view
+    (e.g. ``-inf`` for the VANet ablation, which needs no "rate" table).  ValueError when the config's gate or close-view
     planner needs a network the run lacks."""
     if cfg.vags.gate in ("success", "rate") and networks.success is None:
         raise ValueError(f"the run's networks ({networks.source}) have no success net (trained before the "
                          f"'success' gate): evaluate with --set vags.gate=q, or train the run again")
-    if cfg.vags.gate == "rate" and networks.gate_table is None:
+    ablation = threshold is not None and float(threshold) == -math.inf  # GDNet alone: the gate never moves
+    if cfg.vags.gate == "rate" and networks.gate_table is None and not ablation:
         raise ValueError(f"vags.gate=rate needs a gate table measured on the run's networks ({networks.source}) "
                          f"in RUN/gate.json, and the run has none for them: measure it with "
                          f"python -m vags_jax.stages.gate_measure --run RUN")
@@ -185,8 +186,9 @@ def vags_params(networks, cfg: Config, threshold=None) -> dict:
         params["success"] = networks.success
     if networks.calibration is not None:
         params["calibration"] = networks.calibration
-    if cfg.vags.gate == "rate":
-        params["gate_table"] = jnp.asarray(networks.gate_table, jnp.float32)
+    if cfg.vags.gate == "rate":  # the ablation without a table: one bin whose move value is 0
+        table = [[math.inf], [0.0]] if networks.gate_table is None else networks.gate_table
+        params["gate_table"] = jnp.asarray(table, jnp.float32)
     return params
 
 

@@ -10,7 +10,8 @@ objects.  One *iteration* is, for every world at once:
      ``vags.move_cost``; a "rate" run trains with "success": ``training_config``);
   2. DAES (``vags_jax.rl.exploration``) picks the viewpoint among object pixels with probability
      epsilon (VANet's argmax otherwise); in stage 3 it also explores GDNet's direct grasps
-     (stage 2 grasps directly at GDNet's argmax: GDNet is frozen);
+     (stage 2, and stage 3 with ``vags.stage3_gdnet="frozen"``, grasp directly at GDNet's
+     argmax: GDNet is frozen);
   3. the attempt runs (``VagsEnv.step_attempt_or_reset``): a direct grasp (1 motion) or the move
      to the viewpoint, the close image and the close-view planner's grasp (2 motions).  Worlds
      whose round ended start a new scene in the same physics loop, as in stage 1;
@@ -18,11 +19,12 @@ objects.  One *iteration* is, for every world at once:
      the next iteration's decision, and the "after" of eq. 5 (``view_reward``);
   5. transitions: the viewpoint worlds' into VANet's replay (action [row, col], reward
      ``view_reward``: the success of the grasp after the move, or eq. 5); GDNet's grasps -- the
-     direct ones, and with the "gdnet" planner those on the fused close-view maps -- into
-     GDNet's replay (action [rotation, row, col], reward 1 on success); the last attempt of a
-     round is terminal;
+     direct ones, and with the "gdnet" planner those on the fused close-view maps (not in stage 3
+     with ``vags.stage3_gdnet="direct"``) -- into GDNet's replay (action [rotation, row, col],
+     reward 1 on success); the last attempt of a round is terminal;
   6. ``updates_per_iteration`` updates of each learner from its replay: the success net
-     (gamma 0, GDNet's replay; stages 2 and 3), GDNet (stage 3) and VANet (``vags.vanet_gamma``);
+     (gamma 0, GDNet's replay; stages 2 and 3), GDNet (stage 3, unless ``vags.stage3_gdnet`` is
+     "frozen") and VANet (``vags.vanet_gamma``);
      a learner starts once its replay holds ``learning_starts`` transitions.
 
 GDNet's argmax and largest Q are carried from one iteration to the next (step 4), so GDNet runs
@@ -144,6 +146,10 @@ class VagsStage:
         self.nbv = which == "nbv"
         self.cfg, self.which = training_config(cfg), 2 if self.nbv else which
         self.stage: Stage = _nbv_stage(cfg) if self.nbv else (cfg.stage2 if which == 2 else cfg.stage3)
+        # Stage 3 trains GDNet unless vags.stage3_gdnet is "frozen"; "direct" keeps the fused maps out of its replay.
+        self.train_gdnet = self.which == 3 and cfg.vags.stage3_gdnet != "frozen"
+        self.fused_to_replay = cfg.vags.local_planner == "gdnet" and not (
+            self.which == 3 and cfg.vags.stage3_gdnet == "direct")
         self.view_net_cfg = nbv_net(cfg.net) if self.nbv else cfg.net
         self.env = env if env is not None else VagsEnv(cfg)
         self.gdnet = make_qnet(cfg.net, "gdnet")
@@ -238,7 +244,7 @@ class VagsStage:
         learn = lambda upd, ts, buf, k: dqn.learn_from_replay(  # noqa: E731
             upd, ts, buf, k, cfg, st.updates_per_iteration, st.learning_starts)
         gdnet, gd_stats, n_gd = state.gdnet, jnp.zeros((2,), jnp.float32), 0
-        if self.which == 3:
+        if self.train_gdnet:
             gdnet, gd_buffer, gd_stats, n_gd = learn(self.update_gdnet, state.gdnet, gd_buffer, k_g)
             # The success net samples by GDNet's priorities (GDNet owns the buffer in stage 3).
             success, _, s_stats, n_s = learn(self.update_success, state.success, gd_buffer, k_s)
@@ -273,7 +279,7 @@ class VagsStage:
         q_view = self._in_groups(lambda c, h: self._apply_vanet(self._vars(state.vanet), c, h, False),
                                  s.color, s.height)  # (B, H, W)
         view, v_explored = exploration.select_pixel(k_vx, q_view, s.height, eps, cfg.exploration)
-        if self.which == 3:
+        if self.train_gdnet:
             grasp, g_explored = exploration.select_grasp_from_greedy(
                 k_gx, state.gd_grasp, cfg.net.n_rotations, s.height, eps, cfg.exploration)
         else:
@@ -302,7 +308,7 @@ class VagsStage:
         va_buffer = replay.add(state.vanet_replay, replay.make_grasp_transition(
             s.color, s.height, view, r_view, s2.color, s2.height, over), mask=viewing)
         # GDNet's grasps: direct ones on the global maps, close-view ones on the fused maps.
-        on_fused = ~direct & (cfg.vags.local_planner == "gdnet")
+        on_fused = ~direct & self.fused_to_replay
         pick = lambda a, b: jnp.where(on_fused.reshape((-1,) + (1,) * (a.ndim - 1)), a, b)  # noqa: E731
         r_grasp = jnp.where(success, cfg.vags.success_reward, 0.0).astype(jnp.float32)
         gd_buffer = replay.add(state.gdnet_replay, replay.make_grasp_transition(
