@@ -45,6 +45,7 @@ from typing import Any, Callable, Optional
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from vags_jax.config import Config
 from vags_jax.env import Attempt, EnvState, VagsEnv
@@ -179,7 +180,7 @@ def vags_params(networks, cfg: Config, threshold=None) -> dict:
         raise ValueError(f"the run's networks ({networks.source}) keep no mean success after a move (trained "
                          f"before vags.view_estimate=mean): evaluate with --set vags.view_estimate=vanet")
     thr = gate_threshold(cfg.vags, networks.q_threshold) if threshold is None else threshold
-    params = {"gdnet": networks.gdnet, "vanet": networks.vanet, "threshold": jnp.asarray(thr, jnp.float32)}
+    params = {"gdnet": networks.gdnet, "vanet": networks.vanet, "threshold": jax.device_put(np.asarray(thr, np.float32))}
     if networks.ggcnn is not None:
         params["ggcnn"] = networks.ggcnn
     if networks.success is not None:
@@ -187,8 +188,8 @@ def vags_params(networks, cfg: Config, threshold=None) -> dict:
     if networks.calibration is not None:
         params["calibration"] = networks.calibration
     if cfg.vags.gate == "rate":  # the ablation without a table: one bin whose move value is 0
-        table = [[math.inf], [0.0]] if networks.gate_table is None else networks.gate_table
-        params["gate_table"] = jnp.asarray(table, jnp.float32)
+        table = np.array([[np.inf], [0.0]], np.float32) if networks.gate_table is None else networks.gate_table
+        params["gate_table"] = jax.device_put(np.asarray(table, np.float32))
     return params
 
 
