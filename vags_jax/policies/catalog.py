@@ -162,8 +162,8 @@ def nbv_params(networks, cfg: Config) -> dict:
 def vags_params(networks, cfg: Config, threshold=None) -> dict:
     """The ``vags`` policy's params from ``pipeline.VagsNetworks``: the gate's threshold is the
     run's ("q" gate) or ``-vags.move_cost`` ("success" gate), unless ``threshold`` overrides it
-    (e.g. ``-inf`` for the VANet ablation, which needs no "rate" table).  ValueError when the config's gate or close-view
-    planner needs a network the run lacks."""
+    (e.g. ``-inf`` for the VANet ablation, which needs no "rate" table).  ValueError when the
+    config's gate or close-view planner needs a network the run lacks."""
     if cfg.vags.gate in ("success", "rate") and networks.success is None:
         raise ValueError(f"the run's networks ({networks.source}) have no success net (trained before the "
                          f"'success' gate): evaluate with --set vags.gate=q, or train the run again")
@@ -180,7 +180,9 @@ def vags_params(networks, cfg: Config, threshold=None) -> dict:
         raise ValueError(f"the run's networks ({networks.source}) keep no mean success after a move (trained "
                          f"before vags.view_estimate=mean): evaluate with --set vags.view_estimate=vanet")
     thr = gate_threshold(cfg.vags, networks.q_threshold) if threshold is None else threshold
-    params = {"gdnet": networks.gdnet, "vanet": networks.vanet, "threshold": jax.device_put(np.asarray(thr, np.float32))}
+    # device_put of a float32 array: no convert_element_type program (eval.py's bad-input checks compile nothing).
+    params = {"gdnet": networks.gdnet, "vanet": networks.vanet,
+              "threshold": jax.device_put(np.asarray(thr, np.float32))}
     if networks.ggcnn is not None:
         params["ggcnn"] = networks.ggcnn
     if networks.success is not None:
