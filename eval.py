@@ -10,6 +10,7 @@
     python eval.py --run runs/gpu --policy ggcnn-close  # GG-CNN of train.py --stage ggcnn, close view
     python eval.py --run runs/gpu                       # VAGS (the run's networks and threshold)
     python eval.py --run runs/gpu --no-viewpoint        # VAGS without VANet: GDNet alone
+    python eval.py --run runs/gpu --networks stage2 --no-viewpoint   # stage 1's GDNet alone (before stage 3)
     python eval.py --run runs/gpu --threshold-sweep 1.70:1.80:0.01 --quantile-sweep 0:1:0.1 --plot runs/gpu/fig.png
     python eval.py --run runs/gpu --record runs/gpu/pictures --groups 3,10
     python eval.py --run runs/gpu --policy mvp                   # Multi-View Picking (GG-CNN of the run)
@@ -36,7 +37,7 @@ model of picks per hour come from the config's benchmark section (--set benchmar
 (or the --config preset) with --set overrides applied; the scene must hold the largest group
 (scene.max_objects).  Prints a Markdown table with a legend of its columns under it
 (docs/benchmark.md, "Metrics", defines each) and writes the full report as JSON to --out, or
-to RUN/eval_<policy>[_step<N>].json, with a CSV beside it (one row per group and overall); the
+to RUN/eval_<policy>[_<stage of --networks>][_step<N>].json, with a CSV beside it (one row per group and overall); the
 report's process_s says where the process spent its seconds before the first round.
 --plot PATH draws success and clearing against the number of objects (paper Fig. 7), one line per
 method (needs matplotlib: pip install 'vags_jax[plot]');
@@ -109,6 +110,9 @@ def parse_args(argv=None):
                         "RUN/eval_<policy>_seed<S>.json); prints each seed's overall figures and their mean")
     p.add_argument("--step", type=cli.int_in(0), default=None,
                    help="checkpoint step for gdnet, vags or vpg (default: latest)")
+    p.add_argument("--networks", default=None, choices=("stage2", "stage3"),
+                   help="vags: the networks saved after this stage (default: the latest). Stage 2's GDNet "
+                        "is stage 1's, which stage 3 goes on training")
     p.add_argument("--out", default=None, help="JSON report path (default: RUN/eval_<policy>.json)")
     p.add_argument("--speed", type=cli.positive_float(100.0), default=None,
                    help="motion-time model: gripper speed m/s (default benchmark.speed, 0.5)")

@@ -764,6 +764,8 @@ EVAL_FLAG_CASES = [
     (["--set", "benchmark.groups=[1, 11]"], r"benchmark\.groups .* go above scene\.max_objects \(3\)"),
     (["--speed", "1", "--set", "benchmark.speed=2"], r"give the speed once"),
     (["--step", "3"], r"--step selects a gdnet, vags or vpg checkpoint; policy 'heuristic' uses none"),
+    (["--networks", "stage2"], r"--networks selects a stage's VAGS networks; policy 'heuristic' uses none"),
+    (["--networks", "stage4"], r"argument --networks: invalid choice: 'stage4'"),
     (["--policy", "vags"], r"policy vags needs --run"),
     (["--no-viewpoint"], r"--no-viewpoint is for --policy vags, not heuristic"),
     (["--threshold-sweep", "1.7:1.8:0.01"], r"--threshold-sweep is for --policy vags, not heuristic"),
@@ -1283,6 +1285,11 @@ def test_predict_exit_code_2_one_line(frame_files, vags_run, tmp_path):
                        timeout=120, env={**os.environ, "PYTHONPATH": ROOT + os.pathsep + os.environ.get("PYTHONPATH", "")})
     assert p.returncode == 2, p.stderr
     assert re.search(r"^predict: error: depth image .*none\.png: no such file", _one_line(p.stderr))
+
+
+def test_networks_of_a_stage_the_run_lacks_is_one_line(capsys, vags_run):
+    code, line = _cli(eval_cli.main, ["--run", vags_run, "--networks", "stage2"], capsys)
+    assert code == 2 and f"run {vags_run} has no stage2 networks (it has stage3's)" in line, line
 
 
 def test_the_rate_gate_without_a_table_for_the_runs_networks_says_how_to_measure_one(tmp_path, capsys, vags_run,

@@ -195,6 +195,8 @@ def test_stage_hand_over(runs):
     last3, _ = _stage_arrays(full, "stage3")
     gd_qmax = np.concatenate([np.ravel(v) for v in last3["gd_qmax"].values()])
     assert nets.source == "stage3 step 4" and nets.success is not None
+    before3 = pipeline.load_vags(full, cfg, stage="stage2")  # eval.py --networks stage2
+    assert before3.source == "stage2 step 2" and checkpoint.tree_equal(before3.gdnet["params"], gd1.params)
     assert float(nets.q_threshold) == pytest.approx(float(np.quantile(gd_qmax, cfg.vags.threshold_quantile)))
     rows2 = _metrics(os.path.join(full, "stage2", "metrics.jsonl"))
     rows3 = _metrics(os.path.join(full, "stage3", "metrics.jsonl"))

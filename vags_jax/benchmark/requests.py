@@ -155,6 +155,8 @@ def _check_flags(args):
         raise ValueError(f"--run {args.run!r} is a file; give the run directory train.py wrote")
     if args.run and not os.path.isdir(args.run):
         raise ValueError(f"run directory {args.run!r} does not exist")
+    if args.networks is not None and policy != "vags":
+        raise ValueError(f"--networks selects a stage's VAGS networks; policy {policy!r} uses none: drop --networks")
     if args.step is not None and policy not in ("gdnet", "vags", "vpg"):
         raise ValueError(f"--step selects a gdnet, vags or vpg checkpoint; policy {policy!r} uses none: drop --step")
     if args.out is not None:
@@ -239,7 +241,7 @@ def prepare_compare(args) -> SimpleNamespace:
                              f"compare runs trained on the same scenes, or evaluate them apart")
     out = args.out
     if out is None and args.run and played:
-        tag = "".join(f"_{t}" for t in (args.objects, args.scenes) if t)
+        tag = "".join(f"_{t}" for t in (args.networks, args.objects, args.scenes) if t)
         out = os.path.join(args.run, f"compare{tag}.json")
         cli.check_writable_file(out, "--run")
     seed = None if not played else (cfg.seed if args.seed is None else args.seed)
@@ -263,7 +265,8 @@ def _run_config(args, policy):
     ggcnn_cfg = None
     if args.run:
         if policy in ("vags", "nbv"):  # no stage 2/3 (nbv) networks, no GG-CNN, damaged files
-            networks = (rundir.load_vags(args.run, step=args.step) if policy == "vags"
+            networks = (rundir.load_vags(args.run, step=args.step, stage=args.networks)
+                        if policy == "vags"
                         else rundir.load_nbv(args.run))
             if networks.ggcnn is not None:
                 ggcnn_cfg = checkpoint.load_config(os.path.join(args.run, "ggcnn"))

@@ -207,18 +207,24 @@ def _vars_target(cfg: Config, kind: str) -> dict:
     return {"params": ts.params, "batch_stats": ts.batch_stats}
 
 
-def load_vags(run_dir: str, cfg: Optional[Config] = None, step: Optional[int] = None) -> VagsNetworks:
+def load_vags(run_dir: str, cfg: Optional[Config] = None, step: Optional[int] = None,
+              stage: Optional[str] = None) -> VagsNetworks:
     """The latest VAGS networks of a run: stage 3's (checkpoint ``step``, default its latest)
-    when stage 3 saved any, else stage 2's; read from the stage's ``networks/`` directory, and
-    GG-CNN from RUN/ggcnn (None when the run has none).  CheckpointError (one line, what to
-    run) when there are none."""
+    when stage 3 saved any, else stage 2's, or those of ``stage`` ("stage2" / "stage3"); read
+    from the stage's ``networks/`` directory, and GG-CNN from RUN/ggcnn (None when the run has
+    none).  CheckpointError (one line, what to run) when there are none."""
     cfg = checkpoint.load_config(run_dir) if cfg is None else cfg
     found = vags_stages(run_dir)
     if not found:
         raise checkpoint.CheckpointError(
             f"run {run_dir} has no VANet yet (no stage 2 or 3 networks): train it with "
             f"python train.py --out {run_dir} --resume (or --stage stage2)")
-    d = networks_dir(run_dir, found[0])
+    if stage is not None and stage not in found:
+        raise checkpoint.CheckpointError(
+            f"run {run_dir} has no {stage} networks (it has {', '.join(found)}'s): train it with "
+            f"python train.py --out {run_dir} --resume")
+    name = found[0] if stage is None else stage
+    d = networks_dir(run_dir, name)
     gdnet = _vars_target(cfg, "gdnet")  # the success net has GDNet's architecture
     # success: absent in runs from before the success net; calibration (3,), (2,) in runs from
     # before the mean success after a move was kept, so it is read as saved.
@@ -232,8 +238,8 @@ def load_vags(run_dir: str, cfg: Optional[Config] = None, step: Optional[int] = 
     if os.path.isdir(ggcnn_stage.ggcnn_dir(run_dir)):
         gg, _ = ggcnn_stage.load_ggcnn(run_dir)
     return VagsNetworks(gdnet=gd, vanet=va, ggcnn=gg, q_threshold=jnp.asarray(thr, jnp.float32), success=su,
-                        calibration=cal, gate_table=rate_gate.load(run_dir, networks_source(found[0], s)),
-                        source=networks_source(found[0], s))
+                        calibration=cal, gate_table=rate_gate.load(run_dir, networks_source(name, s)),
+                        source=networks_source(name, s))
 
 
 def load_nbv(run_dir: str, cfg: Optional[Config] = None) -> VagsNetworks:
