@@ -171,7 +171,8 @@ def vags_params(networks, cfg: Config, threshold=None) -> dict:
     if cfg.vags.gate == "rate" and networks.gate_table is None and not ablation:
         raise ValueError(f"vags.gate=rate needs a gate table measured on the run's networks ({networks.source}) "
                          f"in RUN/gate.json, and the run has none for them: measure it with "
-                         f"python -m vags_jax.stages.gate_measure --run RUN")
+                         f"python -m vags_jax.stages.gate_measure --run RUN (it measures the run's latest "
+                         f"networks), or evaluate with --set vags.gate=success")
     if cfg.vags.local_planner == "ggcnn" and networks.ggcnn is None:
         raise ValueError("vags.local_planner=ggcnn needs a GG-CNN in the run (RUN/ggcnn): train one with "
                          "python train.py --stage ggcnn --out RUN")
