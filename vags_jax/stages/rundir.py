@@ -219,10 +219,9 @@ def load_vags(run_dir: str, cfg: Optional[Config] = None, step: Optional[int] = 
         raise checkpoint.CheckpointError(
             f"run {run_dir} has no VANet yet (no stage 2 or 3 networks): train it with "
             f"python train.py --out {run_dir} --resume (or --stage stage2)")
-    if stage is not None and stage not in found:
-        raise checkpoint.CheckpointError(
-            f"run {run_dir} has no {stage} networks (it has {', '.join(found)}'s): train it with "
-            f"python train.py --out {run_dir} --resume")
+    if stage is not None and stage not in found:  # stage 3 not trained yet, or stage 2's not kept
+        hint = f": train it with python train.py --out {run_dir} --resume" if stage == "stage3" else ""
+        raise checkpoint.CheckpointError(f"run {run_dir} has no {stage} networks (it has {', '.join(found)}'s){hint}")
     name = found[0] if stage is None else stage
     d = networks_dir(run_dir, name)
     gdnet = _vars_target(cfg, "gdnet")  # the success net has GDNet's architecture
