@@ -46,7 +46,8 @@ def _listener(name, *_, **__):
 jax.monitoring.register_event_duration_secs_listener(_listener)
 
 
-ALLOWED_TO_COMPILE = {"test_numpy_poses_match_the_camera_module"}  # checks the tests' own helpers
+ALLOWED_TO_COMPILE = {"test_numpy_poses_match_the_camera_module",  # checks the tests' own helpers
+                      "test_eval_without_viewpoints_plans_without_a_gate_table"}  # loads networks: a valid plan
 
 
 @pytest.fixture(autouse=True)
@@ -1290,6 +1291,19 @@ def test_predict_exit_code_2_one_line(frame_files, vags_run, tmp_path):
 def test_networks_of_a_stage_the_run_lacks_is_one_line(capsys, vags_run):
     code, line = _cli(eval_cli.main, ["--run", vags_run, "--networks", "stage2"], capsys)
     assert code == 2 and f"run {vags_run} has no stage2 networks (it has stage3's)" in line, line
+
+
+def test_eval_without_viewpoints_plans_without_a_gate_table(tmp_path, vags_run):
+    """eval.py --no-viewpoint under the rate gate accepts a run that has no table for its networks
+    (its planning once asked for one though the ablation never moves)."""
+    from vags_jax.benchmark import requests as eval_requests
+
+    run = str(tmp_path / "run")
+    shutil.copytree(vags_run, run)
+    plan = eval_requests.prepare_eval(eval_cli.parse_args(["--run", run, "--no-viewpoint", "--set", "vags.gate=rate"]))
+    assert plan.name == "vags-no-viewpoint" and plan.networks.gate_table is None
+    with pytest.raises(ValueError, match="needs the run's measured gate table"):
+        eval_requests.prepare_eval(eval_cli.parse_args(["--run", run, "--set", "vags.gate=rate"]))
 
 
 def test_the_rate_gate_without_a_table_for_the_runs_networks_says_how_to_measure_one(tmp_path, capsys, vags_run,

@@ -347,7 +347,7 @@ def prepare_eval(args) -> SimpleNamespace:
     if policy == "gdnet":  # the learner, checked against the run's network config
         _, variables, step = rundir.load_gdnet(args.run, args.step)
     if policy == "vags":  # the config's gate / close-view planner against the run's networks
-        P.vags_params(networks, cfg)
+        P.vags_params(networks, cfg, -math.inf if args.no_viewpoint else args.threshold)
     if policy == "nbv":  # the close-view planner against the run's networks
         P.nbv_params(networks, cfg)
     groups = E.check_groups(groups, cfg, rounds)
