@@ -73,7 +73,24 @@ def test_viewpoint_is_checked():
 
 
 def test_stage3_gdnet_is_checked():
-    assert C.Config().vags.stage3_gdnet == "all"
+    assert C.Config().vags.stage3_gdnet == "direct"
     assert C.replace(C.Config(), **{"vags.stage3_gdnet": "frozen"}).vags.stage3_gdnet == "frozen"
     with pytest.raises(ValueError, match=r"vags\.stage3_gdnet must be one of \('all', 'direct', 'frozen'\), got 'none'"):
         C.replace(C.Config(), **{"vags.stage3_gdnet": "none"})
+
+
+def test_a_saved_config_without_a_later_field_reads_the_value_its_run_trained_with(tmp_path):
+    """A run written before ``vags.stage3_gdnet`` trained stage 3 as "all" (today's default is
+    "direct"): its config.json resumes as "all"; a config that names the field keeps it."""
+    import json
+
+    from vags_jax.stages import checkpoint
+
+    old = C.to_dict(C.tiny())
+    del old["vags"]["stage3_gdnet"]
+    (tmp_path / "old").mkdir()
+    (tmp_path / "old" / "config.json").write_text(json.dumps(old))
+    assert checkpoint.load_config(str(tmp_path / "old")).vags.stage3_gdnet == "all"
+    checkpoint.save_config(str(tmp_path / "new"), C.tiny())
+    assert checkpoint.load_config(str(tmp_path / "new")).vags.stage3_gdnet == "direct"
+    assert C.from_dict(C.Config, old).vags.stage3_gdnet == "direct"  # only saved runs read the legacy value

@@ -6,12 +6,13 @@
   the whole ``Config``; the conventions every module shares (frames,
   heightmap axes, rotations) are stated at its top.
 * ``validation``: type checks driven by the field annotations (``@checked``).
-* ``overrides``: ``replace`` with dotted keys (``--set``), ``to_dict`` / ``from_dict``.
+* ``overrides``: ``replace`` with dotted keys (``--set``), ``to_dict`` / ``from_dict`` (``from_saved``:
+  a run's config.json, older fields filled as those runs trained).
 * ``presets``: ``tiny`` (CPU), ``gpu``, ``gpu-edge``, ``paper``, ``default``.
 
 Everything is re-exported here: ``from vags_jax import config as C; C.replace(C.tiny(), ...)``.
 """
-from vags_jax.config.overrides import from_dict, parse_overrides, replace, to_dict
+from vags_jax.config.overrides import LEGACY_FIELDS, from_dict, from_saved, parse_overrides, replace, to_dict
 from vags_jax.config.presets import PRESETS, gpu, gpu_edge, paper, preset, tiny
 from vags_jax.config.sections import (MAX_HEIGHTMAP_PX, MAX_IMAGE_SIDE, MAX_WORLDS,
                                       MAX_DEVICE_BYTES, REPLAY_BYTES_PER_CELL, Workspace,

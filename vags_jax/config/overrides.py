@@ -79,6 +79,21 @@ def from_dict(cls, data: dict):
     return cls(**kwargs)
 
 
+# Fields whose default changed after runs were written without them: a run's config.json that
+# lacks one reads the value those runs trained with, so resuming an old run keeps its behaviour.
+LEGACY_FIELDS = {("vags", "stage3_gdnet"): "all", ("ggcnn", "labels"): "positives"}
+
+
+def from_saved(cls, data: dict):
+    """``from_dict`` of a config.json a run wrote: each ``LEGACY_FIELDS`` entry it lacks reads
+    its legacy value instead of today's default."""
+    if isinstance(data, dict):
+        for (section, name), value in LEGACY_FIELDS.items():
+            if isinstance(data.get(section), dict) and name not in data[section]:
+                data = {**data, section: {**data[section], name: value}}
+    return from_dict(cls, data)
+
+
 def _has_all_defaults(cls) -> bool:
     return all(
         f.default is not dataclasses.MISSING or f.default_factory is not dataclasses.MISSING

@@ -685,11 +685,13 @@ class Vags:
       "eq5": paper eq. 5 as reconstructed: ``success_reward`` on success plus ``view_bonus``
       when GDNet's largest Q on the next global view exceeds the one before the move.
     vanet_gamma: VANet's discount (0: its Q estimates the success of the grasp after the move).
-    stage3_gdnet: what GDNet learns from in stage 3.  "all": its direct grasps on the global
-      views and, with the "gdnet" planner, its grasps on the fused close-view maps (as the
-      paper trains GDNet and VANet together); "direct": the global-view grasps only; "frozen":
-      GDNet keeps stage 1's weights and explores no grasps (stage 3 trains VANet and the
-      success net).  Why it matters: bench/RESULTS.md, "Viewpoints that pay, eleventh look".
+    stage3_gdnet: what GDNet learns from in stage 3.  "direct": its global-view grasps only
+      (as in the paper, whose GDNet never grasps after a move); "all": those and, with the
+      "gdnet" planner, its grasps on the fused close-view maps; "frozen": GDNet keeps stage
+      1's weights and explores no grasps (stage 3 trains VANet and the success net).  "all"
+      made GDNet alone
+      about 10 points worse, "direct" did not (bench/RESULTS.md, "Viewpoints that pay, twelfth
+      look"); runs written before this field read "all" (``LEGACY_FIELDS``).
     train_ggcnn: the pipeline (train.py with no --stage) also trains GG-CNN when local_planner
       is "gdnet", which does not use it (for eval.py --policy ggcnn / ggcnn-close); with "ggcnn"
       it always does.  ``train.py --stage ggcnn --out RUN`` adds one to a run later.
@@ -708,7 +710,7 @@ class Vags:
     vanet_gamma: float = 0.0
     success_reward: float = 1.0
     view_bonus: float = 1.0
-    stage3_gdnet: str = "all"
+    stage3_gdnet: str = "direct"
     train_ggcnn: bool = False
 
     def __post_init__(self):

@@ -66,7 +66,7 @@ def load_config(run_dir: str) -> config_lib.Config:
             f"from a copy, or start a new run in another directory"
         ) from None
     try:
-        return config_lib.from_dict(config_lib.Config, data)
+        return config_lib.from_saved(config_lib.Config, data)
     except (ValueError, TypeError) as e:
         raise CheckpointError(
             f"{path} is not a valid config ({_first_line(e)}); was it edited, or written by another "

@@ -18,8 +18,6 @@ checkpoint step equals ``stageN.iterations``.
 """
 from __future__ import annotations
 
-import dataclasses
-import json
 import os
 from typing import Any, Optional
 
@@ -259,23 +257,13 @@ def load_nbv(run_dir: str, cfg: Optional[Config] = None) -> VagsNetworks:
                         source=networks_source("nbv", s))
 
 
-def _saved_without(run_dir: str, section: str, field: str) -> bool:
-    """Whether ``run_dir``'s config.json has ``section`` but not ``section.field`` (written by
-    code older than the field, so it loads with today's default instead of what was used)."""
-    with open(os.path.join(run_dir, checkpoint.CONFIG_FILE), encoding="utf-8") as f:
-        saved = json.load(f)
-    return isinstance(saved.get(section), dict) and field not in saved[section]
-
-
 def ggcnn_reusable(run_dir: str, cfg: Config) -> Optional[str]:
     """For a new pipeline in ``run_dir``: None when it holds no GG-CNN, or one trained on the
     same data and GG-CNN settings as ``cfg`` (it is reused); else a message saying why not."""
     gdir = ggcnn_stage.ggcnn_dir(run_dir)
     if not (os.path.isdir(gdir) and checkpoint.checkpoint_steps(gdir)):
         return None
-    old = checkpoint.load_config(gdir)
-    if _saved_without(gdir, "ggcnn", "labels"):  # saved before labels was a setting: GG-CNN's positives
-        old = dataclasses.replace(old, ggcnn=dataclasses.replace(old.ggcnn, labels="positives"))
+    old = checkpoint.load_config(gdir)  # saved before ggcnn.labels: GG-CNN's positives (LEGACY_FIELDS)
     if ggcnn_data.data_hash(old) != ggcnn_data.data_hash(cfg) or old.ggcnn != cfg.ggcnn:
         return (f"{gdir} holds a GG-CNN trained with another config (its data or ggcnn section differ); "
                 f"delete {gdir} or choose another --out")
