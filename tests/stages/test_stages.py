@@ -208,7 +208,11 @@ def test_stage_hand_over(runs):
             assert r["attempts"] + r["worlds_resetting"] == 2
         viewed = sum(round(r["view_share"] * r["attempts"]) for r in rows)
         assert rows[-1]["replay_size_vanet"] == viewed
-        assert rows[-1]["replay_size_gdnet"] == sum(r["attempts"] for r in rows)
+    # Stage 2's grasps on fused maps train the success net; stage 3 ("direct", the default) keeps
+    # them out of GDNet's replay.
+    assert cfg.vags.stage3_gdnet == "direct"
+    assert rows2[-1]["replay_size_gdnet"] == sum(r["attempts"] for r in rows2)
+    assert rows3[-1]["replay_size_gdnet"] == sum(round((1 - r["view_share"]) * r["attempts"]) for r in rows3)
     assert all(r["loss_gdnet"] == 0 for r in rows2)
     if any(r["updates"] for r in rows2):
         assert not checkpoint.tree_equal(su2.params, gd1.params), "the success net did not learn in stage 2"
@@ -217,11 +221,12 @@ def test_stage_hand_over(runs):
             not checkpoint.tree_equal(nets.vanet["params"], va2.params)
 
 
-def test_stage3_trains_gdnet_on_direct_grasps_only_when_asked(runs, programs):
-    """``vags.stage3_gdnet="direct"``: stage 3 from the run's stage-2 networks, 4 iterations in
-    memory; GDNet and the success net learn, and GDNet's replay holds the direct grasps only (none
-    on the fused close-view maps).  "frozen" takes stage 2's paths (GDNet's greedy grasps, no
-    GDNet update: ``test_stage_hand_over`` checks them on stage 2), and "all" the default's."""
+def test_stage3_all_trains_gdnet_on_its_fused_map_grasps_too(runs, programs):
+    """``vags.stage3_gdnet="all"``: stage 3 from the run's stage-2 networks, 4 iterations in
+    memory; GDNet and the success net learn, and GDNet's replay holds every grasp, those on the
+    fused close-view maps included.  "frozen" takes stage 2's paths (GDNet's greedy grasps, no
+    GDNet update: ``test_stage_hand_over`` checks them on stage 2), and "direct" the default's
+    (``test_stage_hand_over``: no fused map in GDNet's replay)."""
     full, _ = runs
     base = checkpoint.load_config(full)
     env = programs.env(base)  # the env does not depend on the mode
@@ -229,7 +234,7 @@ def test_stage3_trains_gdnet_on_direct_grasps_only_when_asked(runs, programs):
              for m in ("all", "direct", "frozen")}
     assert [(p.train_gdnet, p.fused_to_replay) for p in modes.values()] == [(True, True), (True, False), (False, True)]
     gd2, va2, su2, thr2 = pipeline.stage2_result(full, base)
-    program = modes["direct"]
+    program = modes["all"]
     state, metrics = fold.run_stage(fold.stage_fns("stage3", program), program.init(
         pipeline.stage_key(base, "stage3"), gd2, None, va2, thr2, su2), 4, chunk=4)
     m = {k: np.asarray(v) for k, v in metrics[0].items()}
@@ -238,7 +243,7 @@ def test_stage3_trains_gdnet_on_direct_grasps_only_when_asked(runs, programs):
     assert 0 < direct < m["attempts"].sum(), "the test needs both direct grasps and moves"
     assert not checkpoint.tree_equal(state.success.params, su2.params), "the success net did not learn"
     assert not checkpoint.tree_equal(state.gdnet.params, gd2.params), "GDNet did not learn in stage 3"
-    assert int(state.gdnet_replay.size) == direct, "a grasp on a fused map reached GDNet's replay"
+    assert int(state.gdnet_replay.size) == m["attempts"].sum(), "a grasp on a fused map missed GDNet's replay"
 
 
 def _saved_equal(saved: dict, tree) -> bool:
