@@ -1,10 +1,14 @@
-"""Run by tests/stages/test_data_parallel.py in a subprocess whose JAX has 2 virtual CPU devices
-(``XLA_FLAGS=--xla_force_host_platform_device_count=2``, set before JAX starts): each check
-computes the same thing on one device and split over the 2-device mesh, and prints the
-largest differences as one JSON line for the test to judge.
+"""Run by tests/stages/test_data_parallel.py in one subprocess whose JAX has 2 virtual CPU devices
+(``XLA_FLAGS=--xla_force_host_platform_device_count=2``, set before JAX starts).  ``update`` and
+``env`` compute the same thing on one device and split over the 2-device mesh and report the
+largest differences; ``train`` runs ``train.py --devices 2`` in this process (2 iterations, resumed
+to 4, and 4 in one go, sharing one ``driver.Programs`` as test_stages.py's pipeline does).  All
+results are printed as one JSON line for the tests to judge: one process, one JAX start.
 
-    python tests/stages/data_parallel_worker.py update | env
+    python tests/stages/data_parallel_worker.py OUT_DIR
 """
+import contextlib
+import io
 import json
 import os
 import sys
@@ -131,6 +135,31 @@ def check_env() -> dict:
             "remaining": [np.asarray(env.n_remaining(x)).tolist() for x in (one_state, two_state)]}
 
 
+def check_train(out_dir: str) -> dict:
+    """``train.py --stage gdnet --devices 2`` on the tiny test config: 2 iterations into
+    OUT_DIR/dp, then ``--resume`` to 4 (the device count read from its config.json), and 4 in
+    one go into OUT_DIR/dp_straight -> {name: {"code", "stderr"}}; the test reads the runs."""
+    import train
+    from vags_jax.stages import driver
+
+    programs = driver.Programs()
+    sets = lambda n: [f"{k}={v}" for k, v in {**TINY_TEST_OVERRIDES, "stage1.iterations": n}.items()]  # noqa: E731
+    out, straight = os.path.join(out_dir, "dp"), os.path.join(out_dir, "dp_straight")
+    runs = {"first": ["--config", "tiny", "--stage", "gdnet", "--devices", "2", "--chunk", "2", "--quiet",
+                      "--out", out, "--set"] + sets(2),
+            "resumed": ["--out", out, "--resume", "--stage", "gdnet", "--chunk", "2", "--quiet",
+                        "--set", "stage1.iterations=4"],
+            "once": ["--config", "tiny", "--stage", "gdnet", "--devices", "2", "--chunk", "2", "--quiet",
+                     "--out", straight, "--set"] + sets(4)}
+    got = {}
+    for name, argv in runs.items():
+        err = io.StringIO()
+        with contextlib.redirect_stderr(err):
+            code = train.main(argv, programs)
+        got[name] = {"code": code, "stderr": err.getvalue()}
+    return got
+
+
 if __name__ == "__main__":
     assert jax.device_count() == 2, f"needs 2 devices (XLA_FLAGS), JAX sees {jax.device_count()}"
-    print(json.dumps({"update": check_update, "env": check_env}[sys.argv[1]]()))
+    print(json.dumps({"update": check_update(), "env": check_env(), "train": check_train(sys.argv[1])}))

@@ -1,8 +1,9 @@
 """Data-parallel stage 1 (``vags_jax.stages.data_parallel``, ``vags_jax.parallel``) on 2 virtual CPU
-devices.  This session's JAX already has one CPU device, so every multi-device check runs in a
+devices.  This session's JAX already has one CPU device, so the multi-device checks run in a
 subprocess started with ``XLA_FLAGS=--xla_force_host_platform_device_count=2``:
-``data_parallel_worker.py`` (the update and the environment step, one device against two) or
-``train.py`` itself; they share the session's compile cache (conftest)."""
+``data_parallel_worker.py`` computes them all in one process (the update and the environment
+step, one device against two; train.py --devices 2 run, resumed and run again) for the tests
+below to judge, or ``train.py`` itself; they share the session's compile cache (conftest)."""
 import json
 import os
 import socket
@@ -30,10 +31,13 @@ def _two_devices(argv, timeout=900):
                           timeout=timeout)
 
 
-def _worker(check: str) -> dict:
-    proc = _two_devices([WORKER, check])
+@pytest.fixture(scope="module")
+def two_devices(tmp_path_factory) -> dict:
+    """``data_parallel_worker.py``'s results ({"update", "env", "train", "out"}), run once."""
+    out = str(tmp_path_factory.mktemp("data_parallel"))
+    proc = _two_devices([WORKER, out], timeout=1500)
     assert proc.returncode == 0, proc.stderr[-4000:]
-    return json.loads(proc.stdout.strip().splitlines()[-1])
+    return {**json.loads(proc.stdout.strip().splitlines()[-1]), "out": out}
 
 
 def _sets(iterations):
@@ -46,18 +50,18 @@ def _rows(path):
         return [json.loads(line) for line in f]
 
 
-def test_sharded_update_equals_the_one_device_update():
+def test_sharded_update_equals_the_one_device_update(two_devices):
     """A DQN update of GDNet (SGD, BatchNorm in train mode) on a batch of 8 split 4 + 4 over 2
     devices, with pmean'd gradients and BatchNorm statistics, equals the one-device update of
     the 8: parameters, optimizer state, running statistics, loss, gradient norm, TD errors."""
-    r = _worker("update")
+    r = two_devices["update"]
     assert r["params_moved"] > 1e-3 and r["batch_stats_moved"] > 1e-2, r  # the update changed both
     assert r["params"] < 1e-5 and r["target_params"] < 1e-5 and r["opt_state"] < 1e-5, r
     assert r["batch_stats"] < 1e-5, r
     assert r["loss"] < 1e-6 * max(1.0, r["loss_value"]) and r["grad_norm"] < 1e-5 and r["td"] < 1e-5, r
 
 
-def test_sharded_env_step_equals_the_unsharded_step_per_world():
+def test_sharded_env_step_equals_the_unsharded_step_per_world(two_devices):
     """One grasp step of 2 worlds (physics, render, heightmaps, bookkeeping) from the same start,
     unsharded and with one world per device in the data-parallel layout.  Per world: the same
     grasp outcome, objects left and attempt count; joint positions within 2e-3, heights within
@@ -67,7 +71,7 @@ def test_sharded_env_step_equals_the_unsharded_step_per_world():
     one world jitted alone, unsharded, differed from the sharded step by as much, 4.9e-4 and
     1.5 mm).  Resets are not compared: a device's worlds draw new scenes from its own key
     stream, by design."""
-    r = _worker("env")
+    r = two_devices["env"]
     assert r["success_one"] == r["success_two"] and r["remaining"][0] == r["remaining"][1], r
     assert r["qpos_moved"] > 0.1, r  # the grasp lifted an object
     assert r["qpos"] < 2e-3 and r["height"] < 5e-3 and r["attempts"] == 0, r
@@ -76,26 +80,23 @@ def test_sharded_env_step_equals_the_unsharded_step_per_world():
     assert r["color_cells_off_edges"] == 0 and r["color_cells"] <= r["cells"] // 100, r
 
 
-def test_train_py_devices_2_trains_checkpoints_and_resumes(tmp_path):
+def test_train_py_devices_2_trains_checkpoints_and_resumes(two_devices, tmp_path):
     """train.py --stage gdnet --devices 2 on 2 CPU devices: 2 iterations, then --resume to 4 (the
     device count kept from config.json), equal to 4 iterations in one go; finite learning
     metrics; the replay saved as 2 shards.  --devices 3 for 2 worlds: one line, exit code 2."""
-    out, straight = str(tmp_path / "dp"), str(tmp_path / "dp_straight")
-    first = _two_devices(["train.py", "--config", "tiny", "--stage", "gdnet", "--devices", "2", "--chunk", "2",
-                          "--quiet", "--out", out, "--set"] + _sets(2))
-    assert first.returncode == 0, first.stderr[-4000:]
-    assert "data parallel over 2 devices (1 world each)" in first.stderr
+    out, straight = os.path.join(two_devices["out"], "dp"), os.path.join(two_devices["out"], "dp_straight")
+    first, resumed, once = (two_devices["train"][k] for k in ("first", "resumed", "once"))
+    assert first["code"] == 0, first["stderr"][-4000:]
+    assert "data parallel over 2 devices (1 world each)" in first["stderr"]
     with open(os.path.join(out, "config.json")) as f:
         assert json.load(f)["parallel"]["devices"] == 2
     with open(os.path.join(out, "summary.json")) as f:
         assert json.load(f)["devices"] == 2
-    assert checkpoint.checkpoint_steps(out) == [2]
-    replay_shapes = checkpoint.part_shapes(out, 2, "replay")
+    assert checkpoint.checkpoint_steps(out)[-1] == 4  # the first run's 2, and the resumed run's 4
+    replay_shapes = checkpoint.part_shapes(out, 4, "replay")
     assert all(s[0] == 2 for s in replay_shapes) and (2, 32) in replay_shapes  # 2 shards of 64 / 2 priorities
 
-    resumed = _two_devices(["train.py", "--out", out, "--resume", "--stage", "gdnet", "--chunk", "2", "--quiet",
-                            "--set", "stage1.iterations=4"])
-    assert resumed.returncode == 0, resumed.stderr[-4000:]
+    assert resumed["code"] == 0, resumed["stderr"][-4000:]
     rows = _rows(os.path.join(out, "metrics.jsonl"))
     assert [r["iteration"] for r in rows] == [0, 1, 2, 3]
     assert all(r["updates"] > 0 for r in rows) and all(r["attempts"] + r["worlds_resetting"] == 2 for r in rows)
@@ -103,9 +104,7 @@ def test_train_py_devices_2_trains_checkpoints_and_resumes(tmp_path):
         assert all(np.isfinite(r[name]) for r in rows), name
     assert rows[-1]["replay_size"] == rows[-1]["attempts_total"]  # both devices' shards counted
 
-    once = _two_devices(["train.py", "--config", "tiny", "--stage", "gdnet", "--devices", "2", "--chunk", "2",
-                         "--quiet", "--out", straight, "--set"] + _sets(4))
-    assert once.returncode == 0, once.stderr[-4000:]
+    assert once["code"] == 0, once["stderr"][-4000:]
     a, _ = checkpoint.read(out, 4)
     b, _ = checkpoint.read(straight, 4)
     assert a.keys() == b.keys() and all(np.array_equal(a[p][k], b[p][k]) for p in a for k in a[p]), \
