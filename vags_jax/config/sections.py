@@ -689,9 +689,8 @@ class Vags:
       (as in the paper, whose GDNet never grasps after a move); "all": those and, with the
       "gdnet" planner, its grasps on the fused close-view maps; "frozen": GDNet keeps stage
       1's weights and explores no grasps (stage 3 trains VANet and the success net).  "all"
-      made GDNet alone
-      about 10 points worse, "direct" did not (bench/RESULTS.md, "Viewpoints that pay, twelfth
-      look"); runs written before this field read "all" (``LEGACY_FIELDS``).
+      made GDNet alone about 10 points worse, "direct" did not (bench/RESULTS.md, "Viewpoints
+      that pay, twelfth look"); runs written before this field read "all" (``LEGACY_FIELDS``).
     train_ggcnn: the pipeline (train.py with no --stage) also trains GG-CNN when local_planner
       is "gdnet", which does not use it (for eval.py --policy ggcnn / ggcnn-close); with "ggcnn"
       it always does.  ``train.py --stage ggcnn --out RUN`` adds one to a run later.
