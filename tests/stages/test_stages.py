@@ -211,6 +211,7 @@ def test_stage_hand_over(runs):
     # Stage 2's grasps on fused maps train the success net; stage 3 ("direct", the default) keeps
     # them out of GDNet's replay.
     assert cfg.vags.stage3_gdnet == "direct"
+    assert sum(round(r["view_share"] * r["attempts"]) for r in rows3) > 0, "stage 3 needs moves for this check"
     assert rows2[-1]["replay_size_gdnet"] == sum(r["attempts"] for r in rows2)
     assert rows3[-1]["replay_size_gdnet"] == sum(round((1 - r["view_share"]) * r["attempts"]) for r in rows3)
     assert all(r["loss_gdnet"] == 0 for r in rows2)
