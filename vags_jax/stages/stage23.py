@@ -270,7 +270,7 @@ class VagsStage:
         return Decision(direct=score > thr, grasp=grasp, view=view, q_max=state.gd_qmax, score=score), p_direct, p_view
 
     # Long (one reason): one iteration of the paper's loop, steps 1-6 of the module docstring in order.
-    def _iteration(self, state: VagsTrainState, _):
+    def _iteration(self, state: VagsTrainState, fused_to_replay: jax.Array):
         cfg, env, st = self.cfg, self.env, self.stage
         key, k_gx, k_vx, k_img, k_obs, k_n, k_reset, k_learn = jax.random.split(state.key, 8)
         s = state.env
@@ -308,7 +308,7 @@ class VagsStage:
         va_buffer = replay.add(state.vanet_replay, replay.make_grasp_transition(
             s.color, s.height, view, r_view, s2.color, s2.height, over), mask=viewing)
         # GDNet's grasps: direct ones on the global maps, close-view ones on the fused maps.
-        on_fused = ~direct & self.fused_to_replay
+        on_fused = ~direct & fused_to_replay
         pick = lambda a, b: jnp.where(on_fused.reshape((-1,) + (1,) * (a.ndim - 1)), a, b)  # noqa: E731
         r_grasp = jnp.where(success, cfg.vags.success_reward, 0.0).astype(jnp.float32)
         gd_buffer = replay.add(state.gdnet_replay, replay.make_grasp_transition(
@@ -359,8 +359,9 @@ class VagsStage:
                                   iteration=state.iteration + 1, attempts=attempts)
         return new_state, metrics
 
-    def _run_impl(self, state: VagsTrainState, n: int):
-        return jax.lax.scan(self._iteration, state, None, length=n)
+    def _run_impl(self, state: VagsTrainState, n: int, fused_to_replay: jax.Array):
+        # The flag is traced, so that stage 3 "all" and "direct" are one compiled program.
+        return jax.lax.scan(lambda st, _: self._iteration(st, fused_to_replay), state, None, length=n)
 
     # ------------------------------------------------------------------ public
 
@@ -370,7 +371,7 @@ class VagsStage:
         if not isinstance(n, int) or n < 1:
             raise ValueError(f"run: n must be a positive int, got {n!r}")
         self.env.prepare(state.env.n_worlds)
-        return self._run_jit(_distinct_buffers(state), n)
+        return self._run_jit(_distinct_buffers(state), n, jnp.asarray(self.fused_to_replay))
 
 
 def training_config(cfg: Config) -> Config:
