@@ -46,6 +46,21 @@ if os.environ.get("VAGS_JAX_TEST_COMPILE_LOG"):
     logging.getLogger("jax._src.compiler").setLevel(logging.DEBUG)  # cache misses are logged at DEBUG
 
 
+# The costliest test files, longest first (seconds on 2 cores: tests/README.md).  With
+# `--no-loadscope-reorder` (pyproject.toml) pytest-xdist hands out files in collection order, so
+# these start at once and the two workers end together (longest first); the rest keep their order.
+LONGEST_FIRST = ("stages/test_stages.py", "stages/test_data_parallel.py", "stages/test_vpg_stage.py",
+                 "sim/test_clutter.py", "sim/test_simulator.py", "ggcnn/test_ggcnn_data.py",
+                 "benchmark/test_evaluate.py", "sim/test_warp_parity.py")
+
+
+def pytest_collection_modifyitems(config, items):
+    here = os.path.dirname(os.path.abspath(__file__))
+    rank = {name: i for i, name in enumerate(LONGEST_FIRST)}
+    items.sort(key=lambda item: rank.get(os.path.relpath(str(item.path), here).replace(os.sep, "/"),
+                                         len(LONGEST_FIRST)))
+
+
 # The `tiny` preset, shrunk further for tests: 2 worlds, 1-2 objects, small replay.
 TINY_TEST_OVERRIDES = {
     "stage1.n_worlds": 2,
