@@ -20,6 +20,16 @@ from vags_jax.stages import checkpoint  # noqa: E402
 VOLATILE = ("wall_s", "device", "time")
 
 
+class Difference(Exception):
+    """The runs differ (the message says where)."""
+
+
+def _require(same: bool, where: str) -> None:
+    # An exception, not ``assert``: python -O must not turn a difference into "equal".
+    if not same:
+        raise Difference(where)
+
+
 def checkpoint_dirs(run: str) -> list[str]:
     """Sub-directories of ``run`` (relative, sorted) that hold a ``checkpoints/`` folder."""
     return sorted(os.path.relpath(root, run) for root, _, _ in os.walk(run)
@@ -38,31 +48,31 @@ def _json(path: str) -> dict:
 
 
 def compare(a: str, b: str) -> list[str]:
-    """-> lines saying what was compared; raises AssertionError at the first difference."""
+    """-> lines saying what was compared; raises ``Difference`` at the first difference."""
     dirs = checkpoint_dirs(a)
-    assert dirs == checkpoint_dirs(b), f"checkpoint directories differ: {dirs} vs {checkpoint_dirs(b)}"
+    _require(dirs == checkpoint_dirs(b), f"checkpoint directories differ: {dirs} vs {checkpoint_dirs(b)}")
     n_arrays, out = 0, []
     for rel in dirs:
         steps = checkpoint.checkpoint_steps(os.path.join(a, rel))
-        assert steps == checkpoint.checkpoint_steps(os.path.join(b, rel)), f"{rel}: checkpoint steps differ"
+        _require(steps == checkpoint.checkpoint_steps(os.path.join(b, rel)), f"{rel}: checkpoint steps differ")
         for step in steps:
             sa, _ = checkpoint.read(os.path.join(a, rel), step)
             sb, _ = checkpoint.read(os.path.join(b, rel), step)
-            assert sa.keys() == sb.keys(), f"{rel} step {step}: parts differ"
+            _require(sa.keys() == sb.keys(), f"{rel} step {step}: parts differ")
             for part, leaves in sa.items():
-                assert leaves.keys() == sb[part].keys(), f"{rel} step {step} {part}: leaves differ"
+                _require(leaves.keys() == sb[part].keys(), f"{rel} step {step} {part}: leaves differ")
                 for k, x in leaves.items():
                     y = sb[part][k]
-                    assert x.dtype == y.dtype and np.array_equal(x, y, equal_nan=True), \
-                        f"{rel} step {step} {part} leaf {k} differs"
+                    _require(x.dtype == y.dtype and np.array_equal(x, y, equal_nan=True),
+                             f"{rel} step {step} {part} leaf {k} differs")
                     n_arrays += 1
         out.append(f"{rel}: steps {steps} equal")
     for name in ("metrics.jsonl", "stage2/metrics.jsonl", "stage3/metrics.jsonl", "gate.json"):
         pa, pb = os.path.join(a, name), os.path.join(b, name)
-        assert os.path.exists(pa) == os.path.exists(pb), f"{name} is in one run only"
+        _require(os.path.exists(pa) == os.path.exists(pb), f"{name} is in one run only")
         if os.path.exists(pa):
             read = _json if name.endswith(".json") else _rows
-            assert read(pa) == read(pb), f"{name} differs"
+            _require(read(pa) == read(pb), f"{name} differs")
             out.append(f"{name} equal")
     out.append(f"{n_arrays} arrays equal")
     return out
@@ -75,7 +85,7 @@ def main(argv=None) -> int:
         return 2
     try:
         lines = compare(*argv)
-    except AssertionError as e:
+    except Difference as e:
         print(f"different: {e}")
         return 1
     print("\n".join(lines))
