@@ -151,6 +151,12 @@ def _since(t: float) -> float:
     return round(time.perf_counter() - t, 2)
 
 
+def _gdnet_note(networks) -> str:
+    """", GDNet of stage2 step N" where the run kept the GDNet stage 3 started from."""
+    gd = networks.gdnet_source
+    return f", GDNet of {gd}" if gd and gd != networks.source else ""
+
+
 def _startup_seconds(t_main: float, t_inputs: float, t_env: float, new_process: bool) -> dict:
     """Where the process's seconds went before the first round (the report's ``process_s``):
     imports (a new process only), checking the inputs and reading the networks (the device
@@ -178,7 +184,7 @@ def main(argv=None) -> int:
     sweep_abs, sweep_q, time_model = plan.sweep_abs, plan.sweep_q, plan.time_model
     log = lambda s: print(s, file=sys.stderr, flush=True)  # noqa: E731
     source = f" ({args.run}, checkpoint {step})" if step is not None else (
-        f" ({args.run}, {networks.source})" if networks is not None else "")
+        f" ({args.run}, {networks.source}{_gdnet_note(networks)})" if networks is not None else "")
     log(f"evaluating {name}{source}: groups {groups}, {rounds} rounds each, impl={cfg.sim.impl}, "
         f"devices={jax.devices()}")
     t_inputs = time.perf_counter()
@@ -195,7 +201,7 @@ def main(argv=None) -> int:
         report = E.evaluate(cfg, pol, groups, rounds, seed, time_model, ev, log=log)
         if policy == "vags":
             report["threshold"] = float(np.asarray(pol.params["threshold"]))
-            extra["networks"] = networks.source
+            extra["networks"], extra["gdnet"] = networks.source, networks.gdnet_source or networks.source
             log(f"decision threshold {report['threshold']:.4f}")
         print(M.format_table(report))
         overall[report["seed"]] = report["overall"]

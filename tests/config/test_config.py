@@ -72,25 +72,30 @@ def test_viewpoint_is_checked():
         C.replace(C.Config(), **{"vags.viewpoint": "random"})
 
 
-def test_stage3_gdnet_is_checked():
-    assert C.Config().vags.stage3_gdnet == "direct"
+def test_stage3_gdnet_and_its_pick_are_checked():
+    assert (C.Config().vags.stage3_gdnet, C.Config().vags.stage3_gdnet_pick) == ("all", "rate")
     assert C.replace(C.Config(), **{"vags.stage3_gdnet": "frozen"}).vags.stage3_gdnet == "frozen"
     with pytest.raises(ValueError, match=r"vags\.stage3_gdnet must be one of \('all', 'direct', 'frozen'\), got 'none'"):
         C.replace(C.Config(), **{"vags.stage3_gdnet": "none"})
+    with pytest.raises(ValueError, match=r"vags\.stage3_gdnet_pick must be one of \('rate', 'last'\), got 'best'"):
+        C.replace(C.Config(), **{"vags.stage3_gdnet_pick": "best"})
 
 
 def test_a_saved_config_without_a_later_field_reads_the_value_its_run_trained_with(tmp_path):
-    """A run written before ``vags.stage3_gdnet`` trained stage 3 as "all" (today's default is
-    "direct"): its config.json resumes as "all"; a config that names the field keeps it."""
+    """A run written before ``vags.stage3_gdnet`` trained stage 3 as "all", and one written
+    before ``vags.stage3_gdnet_pick`` kept stage 3's GDNet ("last"; today's default is "rate"):
+    their config.json resumes that way; a config that names the field keeps it."""
     import json
 
     from vags_jax.stages import checkpoint
 
     old = C.to_dict(C.tiny())
-    del old["vags"]["stage3_gdnet"]
+    del old["vags"]["stage3_gdnet"], old["vags"]["stage3_gdnet_pick"]
     (tmp_path / "old").mkdir()
     (tmp_path / "old" / "config.json").write_text(json.dumps(old))
-    assert checkpoint.load_config(str(tmp_path / "old")).vags.stage3_gdnet == "all"
-    checkpoint.save_config(str(tmp_path / "new"), C.tiny())
-    assert checkpoint.load_config(str(tmp_path / "new")).vags.stage3_gdnet == "direct"
-    assert C.from_dict(C.Config, old).vags.stage3_gdnet == "direct"  # only saved runs read the legacy value
+    legacy = checkpoint.load_config(str(tmp_path / "old")).vags
+    assert (legacy.stage3_gdnet, legacy.stage3_gdnet_pick) == ("all", "last")
+    new = C.replace(C.tiny(), **{"vags.stage3_gdnet": "direct"})
+    checkpoint.save_config(str(tmp_path / "new"), new)
+    assert checkpoint.load_config(str(tmp_path / "new")).vags == new.vags
+    assert C.from_dict(C.Config, old).vags.stage3_gdnet_pick == "rate"  # only saved runs read the legacy value

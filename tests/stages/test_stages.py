@@ -192,7 +192,7 @@ def test_stage_hand_over(runs):
     gd1 = pipeline.stage1_gdnet(full, cfg)
     gd2, va2, su2, thr2 = pipeline.stage2_result(full, cfg)
     assert checkpoint.tree_equal(gd1, gd2), "stage 2 changed the frozen GDNet"
-    nets = pipeline.load_vags(full, cfg)
+    nets = pipeline.load_vags(full, cfg, gdnet="stage3")  # stage 3's own, whichever the gate table kept
     last3, _ = _stage_arrays(full, "stage3")
     gd_qmax = np.concatenate([np.ravel(v) for v in last3["gd_qmax"].values()])
     assert nets.source == "stage3 step 4" and nets.success is not None
@@ -209,12 +209,12 @@ def test_stage_hand_over(runs):
             assert r["attempts"] + r["worlds_resetting"] == 2
         viewed = sum(round(r["view_share"] * r["attempts"]) for r in rows)
         assert rows[-1]["replay_size_vanet"] == viewed
-    # Stage 2's grasps on fused maps train the success net; stage 3 ("direct", the default) keeps
-    # them out of GDNet's replay.
-    assert cfg.vags.stage3_gdnet == "direct"
+    # Stage 2's grasps on fused maps train the success net; stage 3 ("all", the default) trains
+    # GDNet on them too.
+    assert cfg.vags.stage3_gdnet == "all"
     assert sum(round(r["view_share"] * r["attempts"]) for r in rows3) > 0, "stage 3 needs moves for this check"
     assert rows2[-1]["replay_size_gdnet"] == sum(r["attempts"] for r in rows2)
-    assert rows3[-1]["replay_size_gdnet"] == sum(round((1 - r["view_share"]) * r["attempts"]) for r in rows3)
+    assert rows3[-1]["replay_size_gdnet"] == sum(r["attempts"] for r in rows3)
     assert all(r["loss_gdnet"] == 0 for r in rows2)
     if any(r["updates"] for r in rows2):
         assert not checkpoint.tree_equal(su2.params, gd1.params), "the success net did not learn in stage 2"
@@ -223,13 +223,13 @@ def test_stage_hand_over(runs):
             not checkpoint.tree_equal(nets.vanet["params"], va2.params)
 
 
-def test_stage3_all_trains_gdnet_on_its_fused_map_grasps_too(runs, programs):
-    """``vags.stage3_gdnet="all"``: stage 3 from the run's stage-2 networks, 4 iterations in
-    memory in chunks of 2 (the program the pipeline compiled for "direct": the mode is a traced
-    flag); GDNet and the success net learn, and GDNet's replay holds every grasp, those on the
-    fused close-view maps included.  "frozen" takes stage 2's paths (GDNet's greedy grasps, no
-    GDNet update: ``test_stage_hand_over`` checks them on stage 2), and "direct" the default's
-    (``test_stage_hand_over``: no fused map in GDNet's replay)."""
+def test_stage3_direct_keeps_its_fused_map_grasps_out_of_gdnets_replay(runs, programs):
+    """``vags.stage3_gdnet="direct"``: stage 3 from the run's stage-2 networks, 4 iterations in
+    memory in chunks of 2 (the program the pipeline compiled for "all": the mode is a traced
+    flag); GDNet and the success net learn, and GDNet's replay holds its global-view grasps
+    only.  "frozen" takes stage 2's paths (GDNet's greedy grasps, no GDNet update:
+    ``test_stage_hand_over`` checks them on stage 2), and "all" the default's
+    (``test_stage_hand_over``: every grasp in GDNet's replay)."""
     full, _ = runs
     base = checkpoint.load_config(full)
     env = programs.env(base)  # the env does not depend on the mode
@@ -237,7 +237,7 @@ def test_stage3_all_trains_gdnet_on_its_fused_map_grasps_too(runs, programs):
              for m in ("all", "direct", "frozen")}
     assert [(p.train_gdnet, p.fused_to_replay) for p in modes.values()] == [(True, True), (True, False), (False, True)]
     gd2, va2, su2, thr2 = pipeline.stage2_result(full, base)
-    program = modes["all"]
+    program = modes["direct"]
     state, metrics = fold.run_stage(fold.stage_fns("stage3", program), program.init(
         pipeline.stage_key(base, "stage3"), gd2, None, va2, thr2, su2), 4, chunk=2)
     m = {k: np.concatenate([np.asarray(c[k]) for c in metrics]) for k in metrics[0]}
@@ -246,7 +246,40 @@ def test_stage3_all_trains_gdnet_on_its_fused_map_grasps_too(runs, programs):
     assert 0 < direct < m["attempts"].sum(), "the test needs both direct grasps and moves"
     assert not checkpoint.tree_equal(state.success.params, su2.params), "the success net did not learn"
     assert not checkpoint.tree_equal(state.gdnet.params, gd2.params), "GDNet did not learn in stage 3"
-    assert int(state.gdnet_replay.size) == m["attempts"].sum(), "a grasp on a fused map missed GDNet's replay"
+    assert int(state.gdnet_replay.size) == direct, "a grasp on a fused map reached GDNet's replay"
+
+
+def test_the_run_keeps_the_gdnet_whose_gate_table_picks_more(runs, tmp_path):
+    """``vags.stage3_gdnet_pick="rate"``: the pipeline measured the gate table with stage 3's
+    GDNet and with stage 2's, and kept the one whose table picks more per second (a tie keeps
+    stage 3's); ``load_vags`` gives the kept GDNet and its "q" threshold, and the table only to
+    networks with that GDNet."""
+    full, _ = runs
+    cfg = checkpoint.load_config(full)
+    with open(os.path.join(full, "gate.json")) as f:
+        saved = json.load(f)
+    tried = saved["gdnet_pick"]
+    assert set(tried) == {"stage3 step 4", "stage2 step 2"}
+    kept = "stage2 step 2" if tried["stage2 step 2"]["rate"] > tried["stage3 step 4"]["rate"] else "stage3 step 4"
+    assert saved["gdnet"] == kept and saved["networks"] == "stage3 step 4"
+    assert saved["rate"] == pytest.approx(tried[kept]["rate"])
+    # Both picks on a copy of the run's networks, whatever this run's was.
+    run = str(tmp_path / "run")
+    for part in ("stage2/networks", "stage3/networks"):
+        shutil.copytree(os.path.join(full, part), os.path.join(run, part))
+    shutil.copy(os.path.join(full, checkpoint.CONFIG_FILE), run)
+    own3 = pipeline.load_vags(full, cfg, gdnet="stage3")
+    own2 = pipeline.load_vags(full, cfg, stage="stage2")
+    for pick, want in (("stage2 step 2", own2), ("stage3 step 4", own3)):
+        with open(os.path.join(run, "gate.json"), "w") as f:
+            json.dump({**saved, "gdnet": pick}, f)
+        nets = pipeline.load_vags(run, cfg)
+        assert (nets.source, nets.gdnet_source) == ("stage3 step 4", pick)
+        assert checkpoint.tree_equal(nets.gdnet, want.gdnet) and float(nets.q_threshold) == float(want.q_threshold)
+        assert checkpoint.tree_equal(nets.vanet, own3.vanet) and nets.gate_table is not None
+        last = pipeline.load_vags(run, C.replace(cfg, **{"vags.stage3_gdnet_pick": "last"}))
+        assert checkpoint.tree_equal(last.gdnet, own3.gdnet)
+        assert (last.gate_table is None) == (pick == "stage2 step 2"), "a table served to another GDNet"
 
 
 def _saved_equal(saved: dict, tree) -> bool:
@@ -304,6 +337,7 @@ def test_eval_vags_sweep_csv_and_record(runs, tmp_path):
     with open(out) as f:
         report = json.load(f)
     assert report["policy"] == "vags" and report["networks"] == "stage3 step 4"
+    assert report["gdnet"] == _gate_table(full)["gdnet"]  # the GDNet the run kept
     with open(str(tmp_path / "vags.csv")) as f:
         assert len(f.read().strip().splitlines()) == 1 + 2 + 1  # header, 2 groups, overall
     with open(str(tmp_path / "vags_sweep.json")) as f:

@@ -81,7 +81,8 @@ def from_dict(cls, data: dict):
 
 # Fields whose default changed after runs were written without them: a run's config.json that
 # lacks one reads the value those runs trained with, so resuming an old run keeps its behaviour.
-LEGACY_FIELDS = {("vags", "stage3_gdnet"): "all", ("ggcnn", "labels"): "positives"}
+LEGACY_FIELDS = {("vags", "stage3_gdnet"): "all", ("vags", "stage3_gdnet_pick"): "last",
+                 ("ggcnn", "labels"): "positives"}
 
 
 def from_saved(cls, data: dict):

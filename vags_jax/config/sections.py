@@ -646,6 +646,7 @@ VAGS_VIEW_REWARDS = ("success", "eq5")
 VAGS_VIEW_ESTIMATES = ("mean", "vanet")
 VAGS_VIEWPOINTS = ("vanet", "grasp")
 VAGS_STAGE3_GDNET = ("all", "direct", "frozen")
+VAGS_STAGE3_GDNET_PICKS = ("rate", "last")
 
 
 @dataclass(frozen=True)
@@ -685,12 +686,18 @@ class Vags:
       "eq5": paper eq. 5 as reconstructed: ``success_reward`` on success plus ``view_bonus``
       when GDNet's largest Q on the next global view exceeds the one before the move.
     vanet_gamma: VANet's discount (0: its Q estimates the success of the grasp after the move).
-    stage3_gdnet: what GDNet learns from in stage 3.  "direct": its global-view grasps only
-      (as in the paper, whose GDNet never grasps after a move); "all": those and, with the
-      "gdnet" planner, its grasps on the fused close-view maps; "frozen": GDNet keeps stage
-      1's weights and explores no grasps (stage 3 trains VANet and the success net).  "all"
-      made GDNet alone about 10 points worse, "direct" did not (bench/RESULTS.md, "Viewpoints
-      that pay, twelfth look"); runs written before this field read "all" (``LEGACY_FIELDS``).
+    stage3_gdnet: what GDNet learns from in stage 3.  "all": its global-view grasps and, with
+      the "gdnet" planner, its grasps on the fused close-view maps (so the grasp after a move
+      improves too); "direct": its global-view grasps only (as in the paper, whose GDNet never
+      grasps after a move); "frozen": GDNet keeps stage 1's weights and explores no grasps
+      (stage 3 trains VANet and the success net).  Why "all": bench/RESULTS.md, "Viewpoints
+      that pay, thirteenth look"; runs written before this field read "all" (``LEGACY_FIELDS``).
+    stage3_gdnet_pick: which GDNet the trained run keeps.  "rate": when train.py measures the
+      rate gate's table after stage 3 (``gate_table.worlds`` > 0), it measures it once with
+      stage 3's GDNet and once with the GDNet stage 3 started from (stage 2's), and keeps the
+      one under which VAGS picks more per second (its "q" threshold comes with it; RUN/gate.json
+      records both); stage 3's GDNet alone varied from 13 points worse to 4 better across
+      trainings.  "last": stage 3's GDNet, always.  Runs written before this field read "last".
     train_ggcnn: the pipeline (train.py with no --stage) also trains GG-CNN when local_planner
       is "gdnet", which does not use it (for eval.py --policy ggcnn / ggcnn-close); with "ggcnn"
       it always does.  ``train.py --stage ggcnn --out RUN`` adds one to a run later.
@@ -709,7 +716,8 @@ class Vags:
     vanet_gamma: float = 0.0
     success_reward: float = 1.0
     view_bonus: float = 1.0
-    stage3_gdnet: str = "direct"
+    stage3_gdnet: str = "all"
+    stage3_gdnet_pick: str = "rate"
     train_ggcnn: bool = False
 
     def __post_init__(self):
@@ -722,6 +730,8 @@ class Vags:
                f"Vags.viewpoint must be one of {VAGS_VIEWPOINTS}, got {self.viewpoint!r}")
         _check(self.stage3_gdnet in VAGS_STAGE3_GDNET,
                f"Vags.stage3_gdnet must be one of {VAGS_STAGE3_GDNET}, got {self.stage3_gdnet!r}")
+        _check(self.stage3_gdnet_pick in VAGS_STAGE3_GDNET_PICKS,
+               f"Vags.stage3_gdnet_pick must be one of {VAGS_STAGE3_GDNET_PICKS}, got {self.stage3_gdnet_pick!r}")
         _check(self.view_reward in VAGS_VIEW_REWARDS,
                f"Vags.view_reward must be one of {VAGS_VIEW_REWARDS}, got {self.view_reward!r}")
         if self.threshold is not None:

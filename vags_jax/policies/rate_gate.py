@@ -134,15 +134,25 @@ def save(run_dir: str, table: GateTable, meta: dict) -> str:
     return path
 
 
-def load(run_dir: str, networks: Optional[str] = None) -> Optional[np.ndarray]:
-    """RUN/gate.json -> (2, K) float32 (``GateTable.array``); None when the run has none, or
-    when ``networks`` (e.g. "stage3 step 80") is not the networks it was measured on."""
+def read(run_dir: str) -> Optional[dict]:
+    """RUN/gate.json as written (the table's fields and its meta); None when the run has none."""
     path = os.path.join(run_dir, GATE_FILE)
     if not os.path.isfile(path):
         return None
     with open(path) as f:
-        d = json.load(f)
+        return json.load(f)
+
+
+def load(run_dir: str, networks: Optional[str] = None, gdnet: Optional[str] = None) -> Optional[np.ndarray]:
+    """RUN/gate.json -> (2, K) float32 (``GateTable.array``); None when the run has none, or
+    when ``networks`` (e.g. "stage3 step 80") is not the networks it was measured on, or
+    ``gdnet`` not their GDNet (its "gdnet"; tables from before it was kept: ``networks``)."""
+    d = read(run_dir)
+    if d is None:
+        return None
     if networks is not None and d.get("networks") != networks:
+        return None
+    if gdnet is not None and d.get("gdnet", d.get("networks")) != gdnet:
         return None
     fields = {f.name for f in dataclasses.fields(GateTable)}
     return GateTable(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in d.items() if k in fields}).array()

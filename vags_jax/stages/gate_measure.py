@@ -15,7 +15,10 @@ so after training both branches run from the same state:
   ``vags.viewpoint``; the configured close-view planner) each run in their own copy of the
   physics, with the benchmark's modelled robot seconds (``MotionTimeModel``; a failed grasp
   also pays its return to the global pose);
-* ``rate_gate.fit`` bins the success net's raw p_direct and writes the table to RUN/gate.json.
+* ``rate_gate.fit`` bins the success net's raw p_direct and writes the table to RUN/gate.json;
+* with ``vags.stage3_gdnet_pick="rate"`` the table is measured again with the GDNet stage 3
+  started from (stage 2's), and the GDNet whose table picks more per second is the run's
+  (``rundir.load_vags`` reads the pick from RUN/gate.json).
 Shapes: B = ``worlds``.
 """
 from __future__ import annotations
@@ -97,18 +100,19 @@ def due(run_dir: str, cfg) -> bool:
 
 
 def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=print, programs=None,
-            count_lost=None):
+            count_lost=None, gdnet="stage3"):
     """The gate table of a trained run (stage 3's networks, else stage 2's) -> (GateTable, meta,
     states): ``states`` the (N,) per-state arrays of the live states the table was fit on.
     worlds / steps / bins / seed / count_lost default to the run's ``gate_table`` config; programs: a
-    ``driver.Programs`` whose compiled collect step is reused (train.py's pipeline)."""
+    ``driver.Programs`` whose compiled collect step is reused (train.py's pipeline); gdnet:
+    "stage2" measures stage 3's networks with stage 2's GDNet (``rundir.load_vags``)."""
     run_cfg = checkpoint.load_config(run_dir)
     g = run_cfg.gate_table
     worlds, steps = worlds or g.worlds or GateTable().worlds, steps or g.steps
     bins, seed = bins or g.bins, g.seed if seed is None else seed
     count_lost = g.count_lost if count_lost is None else count_lost
     cfg = measure_config(run_cfg)
-    networks = rundir.load_vags(run_dir, cfg)
+    networks = rundir.load_vags(run_dir, cfg, gdnet=gdnet)
     params = vags_params(networks, cfg)  # ValueError without a success net
     stage = cfg.stage3
     env = VagsEnv(cfg) if programs is None else programs.env(cfg)
@@ -134,7 +138,7 @@ def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=pri
     table = rate_gate.fit(rows["p_direct"], rows["direct_success"], rows["direct_seconds"],
                           rows["moved_success"], rows["moved_seconds"], bins,
                           lost_direct=rows["direct_lost"], lost_moved=rows["moved_lost"], count_lost=count_lost)
-    meta = {"networks": networks.source, "worlds": worlds, "steps": steps, "seed": seed,
+    meta = {"networks": networks.source, "gdnet": networks.gdnet_source, "worlds": worlds, "steps": steps, "seed": seed,
             "objects": [stage.min_objects, stage.max_objects], "live_states": int(live.sum()),
             "viewpoint": cfg.vags.viewpoint, "local_planner": cfg.vags.local_planner,
             "lost": rate_gate.paired_lost(table, rows["p_direct"], rows["direct_lost"], rows["moved_lost"]),
@@ -162,9 +166,33 @@ def save_all(run_dir: str, table, meta, states) -> str:
     return rate_gate.save(run_dir, table, meta)
 
 
-def measure_into(run_dir: str, log=print, programs=None, **kw):
-    """``measure`` then ``save_all`` -> (RUN/gate.json's path, GateTable, meta); logs the table."""
+def pick_due(run_dir: str, cfg) -> bool:
+    """Whether the table is measured twice, with stage 3's GDNet and with stage 2's
+    (``vags.stage3_gdnet_pick="rate"``, stage 3 changed GDNet, and both stages' networks kept)."""
+    return (cfg.vags.stage3_gdnet_pick == "rate" and cfg.vags.stage3_gdnet != "frozen"
+            and rundir.vags_stages(run_dir) == ["stage3", "stage2"])
+
+
+def measure_picked(run_dir: str, log=print, programs=None, **kw):
+    """``measure``; where ``pick_due``, again with stage 2's GDNet, keeping the table (and with it
+    the GDNet, ``rundir.load_vags``) under which the gate picks more per second -> (GateTable,
+    meta, states); meta["gdnet_pick"] holds both GDNets' rates and direct success."""
     table, meta, states = measure(run_dir, log=log, programs=programs, **kw)
+    if not pick_due(run_dir, checkpoint.load_config(run_dir)):
+        return table, meta, states
+    other = measure(run_dir, log=log, programs=programs, gdnet="stage2", **kw)
+    tried = {m["gdnet"]: {"rate": t.rate, "direct_success": float(np.mean(st["direct_success"]))}
+             for t, m, st in ((table, meta, states), other)}
+    if other[0].rate > table.rate:
+        table, meta, states = other
+    log(f"GDNet kept: {meta['gdnet']} (" + ", ".join(
+        f"{k}: {3600 * v['rate']:.0f} picks/h, direct {100 * v['direct_success']:.1f} %" for k, v in tried.items()) + ")")
+    return table, {**meta, "gdnet_pick": tried}, states
+
+
+def measure_into(run_dir: str, log=print, programs=None, **kw):
+    """``measure_picked`` then ``save_all`` -> (RUN/gate.json's path, GateTable, meta); logs the table."""
+    table, meta, states = measure_picked(run_dir, log=log, programs=programs, **kw)
     for line in describe(table, meta).splitlines():
         log(line)
     return save_all(run_dir, table, meta, states), table, meta
@@ -187,8 +215,9 @@ def main(argv=None) -> int:
             print(f"{PROG}: --{name} must be at least 1, got {getattr(args, name)}", file=sys.stderr)
             return 2
     try:
-        table, meta, states = measure(args.run, args.worlds, args.steps, args.bins, args.seed,
-                                      log=lambda m: print(m, file=sys.stderr, flush=True), count_lost=args.count_lost)
+        table, meta, states = measure_picked(args.run, log=lambda m: print(m, file=sys.stderr, flush=True),
+                                             worlds=args.worlds, steps=args.steps, bins=args.bins, seed=args.seed,
+                                             count_lost=args.count_lost)
     except (ValueError, checkpoint.CheckpointError, FileNotFoundError) as e:
         print(f"{PROG}: {e}", file=sys.stderr)
         return 2

@@ -167,6 +167,7 @@ class VagsNetworks:
     calibration: Any = None
     gate_table: Any = None  # (2, K) the "rate" gate's measured table (RUN/gate.json), None without one
     source: str = struct.field(pytree_node=False, default="")
+    gdnet_source: str = struct.field(pytree_node=False, default="")  # GDNet's, where not ``source`` (the pick)
 
 
 def networks_dir(run_dir: str, name: str) -> str:
@@ -206,11 +207,13 @@ def _vars_target(cfg: Config, kind: str) -> dict:
 
 
 def load_vags(run_dir: str, cfg: Optional[Config] = None, step: Optional[int] = None,
-              stage: Optional[str] = None) -> VagsNetworks:
+              stage: Optional[str] = None, gdnet: Optional[str] = None) -> VagsNetworks:
     """The latest VAGS networks of a run: stage 3's (checkpoint ``step``, default its latest)
     when stage 3 saved any, else stage 2's, or those of ``stage`` ("stage2" / "stage3"); read
     from the stage's ``networks/`` directory, and GG-CNN from RUN/ggcnn (None when the run has
-    none).  CheckpointError (one line, what to run) when there are none."""
+    none).  With stage 3's networks, GDNet and the "q" threshold are stage 2's where ``gdnet``
+    is "stage2", or (``gdnet`` None) where RUN/gate.json picked them (``stage3_gdnet_pick``);
+    "stage3" keeps stage 3's.  CheckpointError (one line, what to run) when there are none."""
     cfg = checkpoint.load_config(run_dir) if cfg is None else cfg
     found = vags_stages(run_dir)
     if not found:
@@ -221,22 +224,42 @@ def load_vags(run_dir: str, cfg: Optional[Config] = None, step: Optional[int] = 
         hint = f": train it with python train.py --out {run_dir} --resume" if stage == "stage3" else ""
         raise checkpoint.CheckpointError(f"run {run_dir} has no {stage} networks (it has {', '.join(found)}'s){hint}")
     name = found[0] if stage is None else stage
-    d = networks_dir(run_dir, name)
-    gdnet = _vars_target(cfg, "gdnet")  # the success net has GDNet's architecture
-    # success: absent in runs from before the success net; calibration (3,), (2,) in runs from
-    # before the mean success after a move was kept, so it is read as saved.
-    got, s = checkpoint.restore_parts(d, {"gdnet": gdnet, "vanet": _vars_target(cfg, "vanet"),
-                                          "threshold": np.zeros((), np.float32), "success": gdnet,
-                                          "calibration": None}, step, optional=("success", "calibration"))
-    gd, va, thr, su = got["gdnet"], got["vanet"], got["threshold"], got["success"]
-    cal = None if got["calibration"] is None else jnp.asarray(
-        np.ravel(next(iter(got["calibration"].values()))), jnp.float32)
+    gd, va, thr, su, cal, s = _restore_vags(run_dir, cfg, name, step)
+    source = gd_source = networks_source(name, s)
+    if name == "stage3" and (gdnet or picked_gdnet(run_dir, cfg, source)) == "stage2":
+        if "stage2" not in found:
+            raise checkpoint.CheckpointError(f"run {run_dir} keeps no stage-2 networks, whose GDNet was asked for")
+        gd, _, thr, _, _, s2 = _restore_vags(run_dir, cfg, "stage2", None)
+        gd_source = networks_source("stage2", s2)
     gg = None
     if os.path.isdir(ggcnn_stage.ggcnn_dir(run_dir)):
         gg, _ = ggcnn_stage.load_ggcnn(run_dir)
     return VagsNetworks(gdnet=gd, vanet=va, ggcnn=gg, q_threshold=jnp.asarray(thr, jnp.float32), success=su,
-                        calibration=cal, gate_table=rate_gate.load(run_dir, networks_source(name, s)),
-                        source=networks_source(name, s))
+                        calibration=cal, gate_table=rate_gate.load(run_dir, source, gd_source), source=source,
+                        gdnet_source=gd_source)
+
+
+def _restore_vags(run_dir: str, cfg: Config, name: str, step: Optional[int]):
+    """One stage's saved networks -> (gdnet, vanet, threshold, success, calibration, step)."""
+    gdnet = _vars_target(cfg, "gdnet")  # the success net has GDNet's architecture
+    # success: absent in runs from before the success net; calibration (3,), (2,) in runs from
+    # before the mean success after a move was kept, so it is read as saved.
+    got, s = checkpoint.restore_parts(networks_dir(run_dir, name),
+                                      {"gdnet": gdnet, "vanet": _vars_target(cfg, "vanet"),
+                                       "threshold": np.zeros((), np.float32), "success": gdnet,
+                                       "calibration": None}, step, optional=("success", "calibration"))
+    cal = None if got["calibration"] is None else jnp.asarray(
+        np.ravel(next(iter(got["calibration"].values()))), jnp.float32)
+    return got["gdnet"], got["vanet"], got["threshold"], got["success"], cal, s
+
+
+def picked_gdnet(run_dir: str, cfg: Config, source: str) -> str:
+    """"stage2" where RUN/gate.json, measured on stage-3 networks ``source``, kept stage 2's
+    GDNet (``vags.stage3_gdnet_pick="rate"``); else "stage3"."""
+    d = rate_gate.read(run_dir) if cfg.vags.stage3_gdnet_pick == "rate" else None
+    if d is None or d.get("networks") != source:
+        return "stage3"
+    return str(d.get("gdnet", source)).split(" ")[0]
 
 
 def load_nbv(run_dir: str, cfg: Optional[Config] = None) -> VagsNetworks:
@@ -286,6 +309,6 @@ def load_gdnet(run_dir: str, step: Optional[int] = None):
     return cfg, {"params": learner.params, "batch_stats": learner.batch_stats}, step
 
 
-__all__ = ["ORDER", "BASELINES", "prerequisites", "load_nbv", "ALIASES", "DESCRIPTION", "canonical", "stage_dir", "total", "progress", "stage_key",
+__all__ = ["picked_gdnet", "ORDER", "BASELINES", "prerequisites", "load_nbv", "ALIASES", "DESCRIPTION", "canonical", "stage_dir", "total", "progress", "stage_key",
            "learner_target", "stage1_gdnet", "needs_ggcnn", "ggcnn_params", "stage2_result", "VagsNetworks",
            "load_vags", "networks_dir", "save_networks", "ggcnn_reusable", "load_gdnet"]
