@@ -10,6 +10,7 @@ import signal
 import subprocess
 import sys
 import time
+from types import SimpleNamespace
 
 import jax
 import jax.numpy as jnp
@@ -21,6 +22,7 @@ import train
 from vags_jax.stages import checkpoint, ggcnn as ggcnn_stage, rundir as pipeline, stage23 as vags_stages
 from vags_jax.stages import pipeline as fold
 from vags_jax.stages import requests
+from vags_jax.benchmark import requests as eval_requests
 from vags_jax.rl import replay
 from vags_jax.policies import rate_gate
 from vags_jax import config as C
@@ -280,6 +282,10 @@ def test_the_run_keeps_the_gdnet_whose_gate_table_picks_more(runs, tmp_path):
         last = pipeline.load_vags(run, C.replace(cfg, **{"vags.stage3_gdnet_pick": "last"}))
         assert checkpoint.tree_equal(last.gdnet, own3.gdnet)
         assert (last.gate_table is None) == (pick == "stage2 step 2"), "a table served to another GDNet"
+        # eval.py --set vags.stage3_gdnet_pick=last loads stage 3's GDNet too.
+        _, played, _, _ = eval_requests._run_config(SimpleNamespace(run=run, step=None, networks=None), "vags",
+                                               {"vags.stage3_gdnet_pick": "last"})
+        assert checkpoint.tree_equal(played.gdnet, own3.gdnet) and played.gdnet_source == "stage3 step 4"
 
 
 def _saved_equal(saved: dict, tree) -> bool:

@@ -258,14 +258,18 @@ def prepare_compare(args) -> SimpleNamespace:
     return plan
 
 
-def _run_config(args, policy):
+def _run_config(args, policy, overrides=None):
     """The run's (or preset's) config and what the policy loads from the run -> (run_cfg,
-    VAGS networks or None, GG-CNN params or None, GG-CNN's config or None)."""
+    VAGS networks or None, GG-CNN params or None, GG-CNN's config or None).  A
+    ``vags.stage3_gdnet_pick`` in ``overrides`` chooses the GDNet the VAGS networks load."""
     networks = ggcnn_params = None
     ggcnn_cfg = None
     if args.run:
         if policy in ("vags", "nbv"):  # no stage 2/3 (nbv) networks, no GG-CNN, damaged files
-            networks = (rundir.load_vags(args.run, step=args.step, stage=args.networks)
+            pick = (overrides or {}).get("vags.stage3_gdnet_pick")
+            load_cfg = None if pick is None else C.replace(checkpoint.load_config(args.run),
+                                                           **{"vags.stage3_gdnet_pick": pick})
+            networks = (rundir.load_vags(args.run, load_cfg, step=args.step, stage=args.networks)
                         if policy == "vags"
                         else rundir.load_nbv(args.run))
             if networks.ggcnn is not None:
@@ -333,7 +337,7 @@ def prepare_eval(args) -> SimpleNamespace:
         run_cfg, vpg_variables, vpg_step = load_vpg(args.run, args.step)
         networks = ggcnn_params = ggcnn_cfg = None
     else:
-        run_cfg, networks, ggcnn_params, ggcnn_cfg = _run_config(args, policy)
+        run_cfg, networks, ggcnn_params, ggcnn_cfg = _run_config(args, policy, overrides)
     cfg = _eval_config(args, policy, run_cfg, ggcnn_cfg, overrides)
     render.check_renderer(cfg.camera)  # the Warp renderer's GPU, before anything compiles
     rounds = cfg.benchmark.rounds if args.rounds is None else args.rounds
