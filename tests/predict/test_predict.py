@@ -294,7 +294,8 @@ def test_no_viewpoint_on_a_stage1_run_is_gdnet_alone(run, policy, scene, cfg, tm
     learner = rundir.learner_target(cfg, "gdnet").replace(**_qnet_variables(cfg, "gdnet", 0))
     checkpoint.save(s1, 3, {"learner": learner})
     out = predict.FramePolicy(s1, no_viewpoint=True).decide(_frame(image, cfg))
-    assert out["networks"] == "stage1 step 3" and out["decision"] == "grasp" and out["gate"]["kind"] == "none"
+    assert out["networks"] == out["gdnet"] == "stage1 step 3" and out["decision"] == "grasp"
+    assert out["gate"]["kind"] == "none"
     direct = _decide(policy, "grasp", _frame(image, cfg))
     assert out["grasp"] == direct["grasp"]
     with pytest.raises(ValueError, match="with --no-viewpoint the policy never moves the camera"):
@@ -315,6 +316,7 @@ def test_the_command_line_on_files(run, scene, cfg, tmp_path, capsys):
     out = json.loads(captured.out)
     assert out["decision"] == "grasp" and _on_tall_block(out["grasp"], cfg)
     assert out["networks"] == "stage3 step 4" and out["gate"]["threshold"] == -1e6
+    assert out["gdnet"].split(" ")[0] in ("stage3", "stage2")  # the GDNet its gate table kept
     drawn = frames.read_rgb(str(tmp_path / "decision.png"))
     assert drawn.shape == np.asarray(image.rgb[0]).shape
     changed = np.any(drawn != np.asarray(image.rgb[0]), axis=-1)

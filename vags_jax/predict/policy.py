@@ -119,7 +119,7 @@ class FramePolicy:
         if self.gdnet_only:
             _, variables, s = load_gdnet(run_dir, step)
             self.params = {"gdnet": variables, "threshold": np.float32(-np.inf)}
-            self.source = rundir.networks_source("stage1", s)
+            self.source = self.gdnet_source = rundir.networks_source("stage1", s)
             return
         if not found:
             try:
@@ -147,6 +147,7 @@ class FramePolicy:
         networks = rundir.load_vags(run_dir, cfg, s)
         self.params = vags_params(networks, cfg, -math.inf if no_viewpoint else threshold)
         self.source = networks.source
+        self.gdnet_source = networks.gdnet_source or networks.source  # the GDNet the run kept (its gate table's pick)
 
     # ------------------------------------------------------------------ checks (numpy, nothing compiled)
 
@@ -175,7 +176,8 @@ class FramePolicy:
             c_depth, c_rgb, c_pose = check_frame(close, self.cfg.workspace, "close frame (--local)")
         g = _global_program(self.params, depth, rgb, pose, cfg=self.cfg, cam=frame.camera, gdnet_only=self.gdnet_only)
         g = {k: (v if k in ("color", "height") else np.asarray(v)) for k, v in g.items()}
-        out = {"decision": "grasp" if bool(g["direct"][0]) else "move", "run": self.run_dir, "networks": self.source}
+        out = {"decision": "grasp" if bool(g["direct"][0]) else "move", "run": self.run_dir, "networks": self.source,
+               "gdnet": self.gdnet_source}
         out["gate"], out["reason"] = self._gate(g)
         direct = self._heightmap_grasp(g["grasp"][0], g["position"][0], g["yaw"][0], g["q_max"][0], "global")
         if out["decision"] == "grasp":
