@@ -153,8 +153,7 @@ def _since(t: float) -> float:
 
 def _gdnet_note(networks) -> str:
     """", GDNet of stage2 step N" where the run kept the GDNet stage 3 started from."""
-    gd = networks.gdnet_source
-    return f", GDNet of {gd}" if gd and gd != networks.source else ""
+    return f", GDNet of {networks.gdnet_source}" if networks.gdnet_source != networks.source else ""
 
 
 def _startup_seconds(t_main: float, t_inputs: float, t_env: float, new_process: bool) -> dict:
@@ -201,7 +200,7 @@ def main(argv=None) -> int:
         report = E.evaluate(cfg, pol, groups, rounds, seed, time_model, ev, log=log)
         if policy == "vags":
             report["threshold"] = float(np.asarray(pol.params["threshold"]))
-            extra["networks"], extra["gdnet"] = networks.source, networks.gdnet_source or networks.source
+            extra["networks"], extra["gdnet"] = networks.source, networks.gdnet_source
             log(f"decision threshold {report['threshold']:.4f}")
         print(M.format_table(report))
         overall[report["seed"]] = report["overall"]

@@ -147,7 +147,7 @@ class FramePolicy:
         networks = rundir.load_vags(run_dir, cfg, s)
         self.params = vags_params(networks, cfg, -math.inf if no_viewpoint else threshold)
         self.source = networks.source
-        self.gdnet_source = networks.gdnet_source or networks.source  # the GDNet the run kept (its gate table's pick)
+        self.gdnet_source = networks.gdnet_source  # the GDNet the run kept (its gate table's pick)
 
     # ------------------------------------------------------------------ checks (numpy, nothing compiled)
 

@@ -40,6 +40,7 @@ from vags_jax.policies import rate_gate
 from vags_jax.policies.catalog import vags_params
 from vags_jax.policies.decision import VagsNets, close_view_grasp, decide, value_at
 from vags_jax.stages import checkpoint, rundir
+from vags_jax.stages.programs import Programs
 
 PROG = "python -m vags_jax.stages.gate_measure"
 STATES_FILE = "gate_states.npz"
@@ -104,7 +105,7 @@ def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=pri
     """The gate table of a trained run (stage 3's networks, else stage 2's) -> (GateTable, meta,
     states): ``states`` the (N,) per-state arrays of the live states the table was fit on.
     worlds / steps / bins / seed / count_lost default to the run's ``gate_table`` config; programs: a
-    ``driver.Programs`` whose compiled collect step is reused (train.py's pipeline); gdnet:
+    ``programs.Programs`` whose compiled collect step is reused (train.py's pipeline); gdnet:
     "stage2" measures stage 3's networks with stage 2's GDNet (``rundir.load_vags``)."""
     run_cfg = checkpoint.load_config(run_dir)
     g = run_cfg.gate_table
@@ -115,9 +116,9 @@ def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=pri
     networks = rundir.load_vags(run_dir, cfg, gdnet=gdnet)
     params = vags_params(networks, cfg)  # ValueError without a success net
     stage = cfg.stage3
-    env = VagsEnv(cfg) if programs is None else programs.env(cfg)
-    make = lambda: make_collect(cfg, env, VagsNets(cfg))  # noqa: E731
-    step = make() if programs is None else programs.get(programs.cfg_key("gate_collect", cfg), make)
+    programs = Programs() if programs is None else programs
+    env = programs.env(cfg)
+    step = programs.get(programs.cfg_key("gate_collect", cfg), lambda: make_collect(cfg, env, VagsNets(cfg)))
     key = jax.random.PRNGKey(seed)
     k_n, k_reset, key = jax.random.split(key, 3)
     n_obj = jax.random.randint(k_n, (worlds,), stage.min_objects, stage.max_objects + 1)
@@ -177,6 +178,7 @@ def measure_picked(run_dir: str, log=print, programs=None, **kw):
     """``measure``; where ``pick_due``, again with stage 2's GDNet, keeping the table (and with it
     the GDNet, ``rundir.load_vags``) under which the gate picks more per second -> (GateTable,
     meta, states); meta["gdnet_pick"] holds both GDNets' rates and direct success."""
+    programs = Programs() if programs is None else programs  # both measures share its compiled step
     table, meta, states = measure(run_dir, log=log, programs=programs, **kw)
     if not pick_due(run_dir, checkpoint.load_config(run_dir)):
         return table, meta, states

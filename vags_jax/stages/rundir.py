@@ -167,7 +167,7 @@ class VagsNetworks:
     calibration: Any = None
     gate_table: Any = None  # (2, K) the "rate" gate's measured table (RUN/gate.json), None without one
     source: str = struct.field(pytree_node=False, default="")
-    gdnet_source: str = struct.field(pytree_node=False, default="")  # GDNet's, where not ``source`` (the pick)
+    gdnet_source: str = struct.field(pytree_node=False, default="")  # GDNet's ("stage2 step N" where picked)
 
 
 def networks_dir(run_dir: str, name: str) -> str:
@@ -277,7 +277,7 @@ def load_nbv(run_dir: str, cfg: Optional[Config] = None) -> VagsNetworks:
     if os.path.isdir(ggcnn_stage.ggcnn_dir(run_dir)):
         gg, _ = ggcnn_stage.load_ggcnn(run_dir)
     return VagsNetworks(gdnet=gd, vanet=va, ggcnn=gg, q_threshold=jnp.asarray(jnp.inf, jnp.float32),
-                        source=networks_source("nbv", s))
+                        source=networks_source("nbv", s), gdnet_source=networks_source("nbv", s))
 
 
 def ggcnn_reusable(run_dir: str, cfg: Config) -> Optional[str]:
