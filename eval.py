@@ -152,8 +152,11 @@ def _since(t: float) -> float:
 
 
 def _gdnet_note(networks) -> str:
-    """", GDNet of stage2 step N" where the run kept the GDNet stage 3 started from."""
-    return f", GDNet of {networks.gdnet_source}" if networks.gdnet_source != networks.source else ""
+    """", GDNet of stage2 step N" where the run kept the GDNet stage 3 started from (and ", after a
+    move stage3 step N" where the grasps after a move use another)."""
+    note = f", GDNet of {networks.gdnet_source}" if networks.gdnet_source != networks.source else ""
+    close = networks.close_gdnet_source
+    return note + (f", after a move {close}" if close and close != networks.gdnet_source else "")
 
 
 def _startup_seconds(t_main: float, t_inputs: float, t_env: float, new_process: bool) -> dict:
@@ -201,6 +204,7 @@ def main(argv=None) -> int:
         if policy == "vags":
             report["threshold"] = float(np.asarray(pol.params["threshold"]))
             extra["networks"], extra["gdnet"] = networks.source, networks.gdnet_source
+            extra["close_gdnet"] = networks.close_source
             log(f"decision threshold {report['threshold']:.4f}")
         print(M.format_table(report))
         overall[report["seed"]] = report["overall"]

@@ -83,7 +83,7 @@ def make_step(cfg, env, has_ggcnn: bool, has_mean: bool):
 
     def step(params, key, state):
         k_gd, k_gg, k_rand, k_rv, k_obs, k_gv, k_re = jax.random.split(key, 7)
-        gdnet_q = nets.gdnet_q(params["gdnet"])
+        gdnet_q, close_q = nets.gdnet_q(params["gdnet"]), nets.close_q(params)
         q_grasp = gdnet_q(state.color, state.height)
         q_view = nets.q_fn(nets.vanet, params["vanet"])(state.color, state.height)
         q_success = nets.q_fn(nets.gdnet, params["success"])(state.color, state.height)
@@ -97,15 +97,15 @@ def make_step(cfg, env, has_ggcnn: bool, has_mean: bool):
         a_gt, _ = greedy(gdnet_q(color_gt, height_gt))
         pos, yaw = env.grasp_pose(state.replace(height=height_gt), a_gt[:, 1:], a_gt[:, 0])
         attempts["oracle"] = env.direct_attempt(pos, yaw)
-        attempts["view_gdnet"], _ = close_view_grasp(cfg_gd, env, state, d_q.view, k_gd, gdnet_q)
+        attempts["view_gdnet"], _ = close_view_grasp(cfg_gd, env, state, d_q.view, k_gd, close_q)
         if has_ggcnn:
             attempts["view_ggcnn"], _ = close_view_grasp(cfg_gg, env, state, d_q.view, k_gg, None, params["ggcnn"],
                                                          nets.ggcnn)
         cell = jax.vmap(lambda k, h: exploration._random_pixel(k, h, cfg.exploration))(
             jax.random.split(k_rand, state.n_worlds), state.height)
         rand_view = jnp.stack(jnp.unravel_index(cell, state.height.shape[1:]), -1).astype(jnp.int32)
-        attempts["random_gdnet"], _ = close_view_grasp(cfg_gd, env, state, rand_view, k_rv, gdnet_q)
-        attempts["grasp_gdnet"], _ = close_view_grasp(cfg_gd, env, state, d_q.grasp[:, 1:], k_gv, gdnet_q)
+        attempts["random_gdnet"], _ = close_view_grasp(cfg_gd, env, state, rand_view, k_rv, close_q)
+        attempts["grasp_gdnet"], _ = close_view_grasp(cfg_gd, env, state, d_q.grasp[:, 1:], k_gv, close_q)
         again = env.with_observation(state, k_re)
         a_re, _ = greedy(gdnet_q(again.color, again.height))
         pos, yaw = env.grasp_pose(again, a_re[:, 1:], a_re[:, 0])
@@ -194,6 +194,8 @@ def main(argv=None) -> int:
               "calibration": nets.calibration if nets.calibration is not None else np.zeros((2,), np.float32)}
     if nets.ggcnn is not None:
         params["ggcnn"] = nets.ggcnn
+    if nets.close_gdnet is not None:  # the run grasps after a move with stage 3's GDNet ("split")
+        params["close_gdnet"] = nets.close_gdnet
     env = VagsEnv(cfg)
     key = jax.random.PRNGKey(args.seed)
     k_n, k_reset, key = jax.random.split(key, 3)

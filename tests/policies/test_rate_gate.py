@@ -104,6 +104,13 @@ def test_gate_json_round_trip_and_stale_tables(tmp_path):
     assert rate_gate.load(str(tmp_path), "stage3 step 80", "stage2 step 40") is not None
     assert rate_gate.load(str(tmp_path), "stage3 step 80", "stage3 step 80") is None  # another GDNet's table
     assert rate_gate.read(str(tmp_path))["gdnet"] == "stage2 step 40"
+    # A table from before the close-view GDNet was recorded grasped after a move with its "gdnet".
+    assert rate_gate.load(str(tmp_path), "stage3 step 80", "stage2 step 40", "stage2 step 40") is not None
+    assert rate_gate.load(str(tmp_path), "stage3 step 80", "stage2 step 40", "stage3 step 80") is None
+    rate_gate.save(str(tmp_path), t, {"networks": "stage3 step 80", "gdnet": "stage2 step 40",
+                                      "close_gdnet": "stage3 step 80"})
+    assert rate_gate.load(str(tmp_path), "stage3 step 80", "stage2 step 40", "stage3 step 80") is not None
+    assert rate_gate.load(str(tmp_path), "stage3 step 80", "stage2 step 40", "stage2 step 40") is None
     # A table written before the objects lost were recorded still loads.
     json.dump({k: v for k, v in json.load(open(path)).items() if not k.startswith("lost_")}, open(path, "w"))
     np.testing.assert_allclose(rate_gate.load(str(tmp_path)), [[0.5, np.inf], [0.35, -0.28]], rtol=1e-6)

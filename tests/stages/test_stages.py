@@ -25,6 +25,8 @@ from vags_jax.stages import requests
 from vags_jax.benchmark import requests as eval_requests
 from vags_jax.rl import replay
 from vags_jax.policies import rate_gate
+from vags_jax.policies.catalog import vags_params
+from vags_jax.policies.decision import VagsNets
 from vags_jax import config as C
 from vags_jax.nets.ggcnn import init_ggcnn
 from vags_jax.stages.stage1 import METRICS, Stage1
@@ -251,41 +253,59 @@ def test_stage3_direct_keeps_its_fused_map_grasps_out_of_gdnets_replay(runs, pro
     assert int(state.gdnet_replay.size) == direct, "a grasp on a fused map reached GDNet's replay"
 
 
-def test_the_run_keeps_the_gdnet_whose_gate_table_picks_more(runs, tmp_path):
+def test_the_run_keeps_the_gdnets_whose_gate_table_picks_most(runs, tmp_path):
     """``vags.stage3_gdnet_pick="rate"``: the pipeline measured the gate table with stage 3's
-    GDNet and with stage 2's, and kept the one whose table picks more per second (a tie keeps
-    stage 3's); ``load_vags`` gives the kept GDNet and its "q" threshold, and the table only to
-    networks with that GDNet."""
+    GDNet, with stage 2's, and with stage 2's for direct grasps and stage 3's after a move
+    ("split"), and kept the one whose table picks most per second (a tie keeps the earlier);
+    ``load_vags`` gives the kept GDNets and the direct one's "q" threshold, the table only to
+    networks with those GDNets, and the close-view planner plays the close one."""
     full, _ = runs
     cfg = checkpoint.load_config(full)
     with open(os.path.join(full, "gate.json")) as f:
         saved = json.load(f)
     tried = saved["gdnet_pick"]
-    assert set(tried) == {"stage3 step 4", "stage2 step 2"}
-    kept = "stage2 step 2" if tried["stage2 step 2"]["rate"] > tried["stage3 step 4"]["rate"] else "stage3 step 4"
-    assert saved["gdnet"] == kept and saved["networks"] == "stage3 step 4"
+    assert list(tried) == ["stage3", "stage2", "split"]
+    want = {"stage3": ("stage3 step 4", "stage3 step 4"), "stage2": ("stage2 step 2", "stage2 step 2"),
+            "split": ("stage2 step 2", "stage3 step 4")}
+    assert {k: (v["gdnet"], v["close_gdnet"]) for k, v in tried.items()} == want
+    kept = max(tried, key=lambda k: (tried[k]["rate"], -list(tried).index(k)))
+    assert (saved["gdnet"], saved["close_gdnet"]) == want[kept] and saved["networks"] == "stage3 step 4"
     assert saved["rate"] == pytest.approx(tried[kept]["rate"])
-    # Both picks on a copy of the run's networks, whatever this run's was.
+    assert tried["split"]["direct_success"] == tried["stage2"]["direct_success"], "one direct GDNet, other states"
+    # Every pick on a copy of the run's networks, whatever this run's was.
     run = str(tmp_path / "run")
     for part in ("stage2/networks", "stage3/networks"):
         shutil.copytree(os.path.join(full, part), os.path.join(run, part))
     shutil.copy(os.path.join(full, checkpoint.CONFIG_FILE), run)
     own3 = pipeline.load_vags(full, cfg, gdnet="stage3")
     own2 = pipeline.load_vags(full, cfg, stage="stage2")
-    for pick, want in (("stage2 step 2", own2), ("stage3 step 4", own3)):
+    nets_fn = VagsNets(cfg)
+    H = cfg.workspace.heightmap_px
+    color = np.zeros((1, H, H, 3), np.float32)
+    height = np.linspace(0, 0.05, H * H, dtype=np.float32).reshape(1, H, H)
+    q = {k: np.asarray(nets_fn.gdnet_q(v.gdnet)(color, height)) for k, v in (("stage2", own2), ("stage3", own3))}
+    assert not np.array_equal(q["stage2"], q["stage3"]), "the test needs two different GDNets"
+    for pick, (direct, close) in want.items():
         with open(os.path.join(run, "gate.json"), "w") as f:
-            json.dump({**saved, "gdnet": pick}, f)
+            json.dump({**saved, "gdnet": direct, "close_gdnet": close}, f)
         nets = pipeline.load_vags(run, cfg)
-        assert (nets.source, nets.gdnet_source) == ("stage3 step 4", pick)
-        assert checkpoint.tree_equal(nets.gdnet, want.gdnet) and float(nets.q_threshold) == float(want.q_threshold)
+        assert (nets.source, nets.gdnet_source, nets.close_source) == ("stage3 step 4", direct, close)
+        direct_own = own2 if direct.startswith("stage2") else own3
+        assert checkpoint.tree_equal(nets.gdnet, direct_own.gdnet)
+        assert float(nets.q_threshold) == float(direct_own.q_threshold)
         assert checkpoint.tree_equal(nets.vanet, own3.vanet) and nets.gate_table is not None
+        params = vags_params(nets, cfg)
+        got = np.asarray(nets_fn.close_q(params)(color, height))
+        assert np.array_equal(got, q[close.split(" ")[0]]), f"{pick}: the grasp after a move used another GDNet"
         last = pipeline.load_vags(run, C.replace(cfg, **{"vags.stage3_gdnet_pick": "last"}))
-        assert checkpoint.tree_equal(last.gdnet, own3.gdnet)
-        assert (last.gate_table is None) == (pick == "stage2 step 2"), "a table served to another GDNet"
+        assert checkpoint.tree_equal(last.gdnet, own3.gdnet) and last.close_gdnet is None
+        assert (last.gate_table is None) == (pick != "stage3"), "a table served to other GDNets"
         # eval.py --set vags.stage3_gdnet_pick=last loads stage 3's GDNet too.
         _, played, _, _ = eval_requests._run_config(SimpleNamespace(run=run, step=None, networks=None), "vags",
                                                {"vags.stage3_gdnet_pick": "last"})
         assert checkpoint.tree_equal(played.gdnet, own3.gdnet) and played.gdnet_source == "stage3 step 4"
+    with pytest.raises(checkpoint.CheckpointError, match="'split' GDNets need stage 3's networks"):
+        pipeline.load_vags(run, cfg, stage="stage2", gdnet="split")
 
 
 def _saved_equal(saved: dict, tree) -> bool:

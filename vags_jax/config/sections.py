@@ -692,11 +692,13 @@ class Vags:
       grasps after a move); "frozen": GDNet keeps stage 1's weights and explores no grasps
       (stage 3 trains VANet and the success net).  Why "all": bench/RESULTS.md, "Viewpoints
       that pay, thirteenth look"; runs written before this field read "all" (``LEGACY_FIELDS``).
-    stage3_gdnet_pick: which GDNet the trained run keeps.  "rate": when train.py measures the
-      rate gate's table after stage 3 (``gate_table.worlds`` > 0), it measures it once with
-      stage 3's GDNet and once with the GDNet stage 3 started from (stage 2's), and keeps the
-      one under which VAGS picks more per second (its "q" threshold comes with it; RUN/gate.json
-      records both); stage 3's GDNet alone varied from 13 points worse to 4 better across
+    stage3_gdnet_pick: which GDNets the trained run keeps.  "rate": when train.py measures the
+      rate gate's table after stage 3 (``gate_table.worlds`` > 0), it measures it with stage 3's
+      GDNet, with the GDNet stage 3 started from (stage 2's), and (with the "gdnet" planner)
+      with stage 2's for the direct grasps and stage 3's, which learned on the fused maps, for
+      the grasps after a move ("split"); it keeps the GDNets under which VAGS picks most per
+      second (the "q" threshold comes with the direct grasps' GDNet; RUN/gate.json records every
+      candidate); stage 3's GDNet alone varied from 13 points worse to 4 better across
       trainings.  "last": stage 3's GDNet, always.  Runs written before this field read "last".
     train_ggcnn: the pipeline (train.py with no --stage) also trains GG-CNN when local_planner
       is "gdnet", which does not use it (for eval.py --policy ggcnn / ggcnn-close); with "ggcnn"

@@ -162,8 +162,9 @@ def nbv_params(networks, cfg: Config) -> dict:
 def vags_params(networks, cfg: Config, threshold=None) -> dict:
     """The ``vags`` policy's params from ``pipeline.VagsNetworks``: the gate's threshold is the
     run's ("q" gate) or ``-vags.move_cost`` ("success" gate), unless ``threshold`` overrides it
-    (e.g. ``-inf`` for the VANet ablation, which needs no "rate" table).  ValueError when the
-    config's gate or close-view planner needs a network the run lacks."""
+    (e.g. ``-inf`` for the VANet ablation, which needs no "rate" table); with the "gdnet" planner
+    ``"close_gdnet"`` is the GDNet of the grasps after a move (``networks.close_gdnet``, else
+    GDNet).  ValueError when the config's gate or close-view planner needs a network the run lacks."""
     if cfg.vags.gate in ("success", "rate") and networks.success is None:
         raise ValueError(f"the run's networks ({networks.source}) have no success net (trained before the "
                          f"'success' gate): evaluate with --set vags.gate=q, or train the run again")
@@ -186,6 +187,9 @@ def vags_params(networks, cfg: Config, threshold=None) -> dict:
               "threshold": jax.device_put(np.asarray(thr, np.float32))}
     if networks.ggcnn is not None:
         params["ggcnn"] = networks.ggcnn
+    if cfg.vags.local_planner == "gdnet":  # always present: every pick of GDNets runs one compiled program
+        close = getattr(networks, "close_gdnet", None)
+        params["close_gdnet"] = networks.gdnet if close is None else close
     if networks.success is not None:
         params["success"] = networks.success
     if networks.calibration is not None:

@@ -228,7 +228,8 @@ def plan_attempt(cfg: Config, env: VagsEnv, state: EnvState, decision: Decision,
 class VagsNets:
     """The networks of VAGS's decision for one config: GDNet, VANet, the success net, GG-CNN.
     ``params`` is ``{"gdnet", "vanet", "success"}`` ({"params", "batch_stats"} each; "success"
-    only for the "success" gate), ``"ggcnn"`` ({"params"}, only for the "ggcnn" planner) and
+    only for the "success" gate; "close_gdnet", GDNet of the grasps after a move, where the run
+    keeps one apart), ``"ggcnn"`` ({"params"}, only for the "ggcnn" planner) and
     ``"threshold"`` (() float32, compared with the gate's score)."""
 
     def __init__(self, cfg: Config):
@@ -245,6 +246,11 @@ class VagsNets:
     def gdnet_q(self, variables) -> Callable:
         """``(color, height) -> (B, R, H, W)`` GDNet's Q with ``variables`` (eval mode)."""
         return self.q_fn(self.gdnet, variables)
+
+    def close_q(self, params: dict) -> Callable:
+        """GDNet's Q for the grasps after a move: ``params["close_gdnet"]`` where the run keeps
+        one apart (``rundir.GDNET_PICKS`` "split"), else ``params["gdnet"]``."""
+        return self.gdnet_q(params.get("close_gdnet", params["gdnet"]))
 
     def q_maps(self, params: dict, color: jax.Array, height: jax.Array):
         """Global maps color (B, H, W, 3) / height (B, H, W) -> (GDNet's Q (B, R, H, W), VANet's Q
@@ -267,7 +273,7 @@ class VagsNets:
     def plan(self, params: dict, key, env: VagsEnv, state: EnvState):
         """-> (Attempt, Decision, CloseView, GDNet's Q, VANet's Q)."""
         decision, q_grasp, q_view = self.decide(params, state)
-        attempt, close = plan_attempt(self.cfg, env, state, decision, key, self.gdnet_q(params["gdnet"]),
+        attempt, close = plan_attempt(self.cfg, env, state, decision, key, self.close_q(params),
                                       params.get("ggcnn"), self.ggcnn)
         return attempt, decision, close, q_grasp, q_view
 

@@ -143,16 +143,22 @@ def read(run_dir: str) -> Optional[dict]:
         return json.load(f)
 
 
-def load(run_dir: str, networks: Optional[str] = None, gdnet: Optional[str] = None) -> Optional[np.ndarray]:
+def load(run_dir: str, networks: Optional[str] = None, gdnet: Optional[str] = None,
+         close_gdnet: Optional[str] = None) -> Optional[np.ndarray]:
     """RUN/gate.json -> (2, K) float32 (``GateTable.array``); None when the run has none, or
-    when ``networks`` (e.g. "stage3 step 80") is not the networks it was measured on, or
-    ``gdnet`` not their GDNet (its "gdnet"; tables from before it was kept: ``networks``)."""
+    when ``networks`` (e.g. "stage3 step 80") is not the networks it was measured on, ``gdnet``
+    not their direct grasps' GDNet (its "gdnet"; tables from before it was kept: ``networks``)
+    or ``close_gdnet`` not the GDNet of their grasps after a move (its "close_gdnet"; tables
+    from before it was kept: "gdnet")."""
     d = read(run_dir)
     if d is None:
         return None
     if networks is not None and d.get("networks") != networks:
         return None
-    if gdnet is not None and d.get("gdnet", d.get("networks")) != gdnet:
+    kept = d.get("gdnet", d.get("networks"))
+    if gdnet is not None and kept != gdnet:
+        return None
+    if close_gdnet is not None and d.get("close_gdnet", kept) != close_gdnet:
         return None
     fields = {f.name for f in dataclasses.fields(GateTable)}
     return GateTable(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in d.items() if k in fields}).array()

@@ -119,7 +119,7 @@ class FramePolicy:
         if self.gdnet_only:
             _, variables, s = load_gdnet(run_dir, step)
             self.params = {"gdnet": variables, "threshold": np.float32(-np.inf)}
-            self.source = self.gdnet_source = rundir.networks_source("stage1", s)
+            self.source = self.gdnet_source = self.close_source = rundir.networks_source("stage1", s)
             return
         if not found:
             try:
@@ -148,6 +148,7 @@ class FramePolicy:
         self.params = vags_params(networks, cfg, -math.inf if no_viewpoint else threshold)
         self.source = networks.source
         self.gdnet_source = networks.gdnet_source  # the GDNet the run kept (its gate table's pick)
+        self.close_source = networks.close_source  # the GDNet of its grasps after a move
 
     # ------------------------------------------------------------------ checks (numpy, nothing compiled)
 
@@ -177,7 +178,7 @@ class FramePolicy:
         g = _global_program(self.params, depth, rgb, pose, cfg=self.cfg, cam=frame.camera, gdnet_only=self.gdnet_only)
         g = {k: (v if k in ("color", "height") else np.asarray(v)) for k, v in g.items()}
         out = {"decision": "grasp" if bool(g["direct"][0]) else "move", "run": self.run_dir, "networks": self.source,
-               "gdnet": self.gdnet_source}
+               "gdnet": self.gdnet_source, "close_gdnet": self.close_source}
         out["gate"], out["reason"] = self._gate(g)
         direct = self._heightmap_grasp(g["grasp"][0], g["position"][0], g["yaw"][0], g["q_max"][0], "global")
         if out["decision"] == "grasp":
@@ -291,7 +292,7 @@ def _global_program(params, depth, rgb, pose, *, cfg, cam, gdnet_only):
 def _close_gdnet_program(params, color, height, depth, rgb, pose, *, cfg, cam):
     """The "gdnet" close-view planner on one close frame, fused into the global maps (1, H, W)."""
     action, q, _, fused, seen = decision.fused_grasp(color, height, depth[None], rgb[None], pose[None], cam,
-                                                     cfg.workspace, _nets(cfg).gdnet_q(params["gdnet"]))
+                                                     cfg.workspace, _nets(cfg).close_q(params))
     position, yaw = grasp_pose(cfg, fused, action[:, 1:], action[:, 0])
     return {"grasp": action, "q": q, "position": position, "yaw": yaw, "seen": seen.sum()}
 

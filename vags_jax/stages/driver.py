@@ -633,7 +633,8 @@ def measure_gate(args, cfg, programs: Programs) -> dict:
     log(f"rate gate: table measured in {progress.duration(wall)} ({progress.duration(clock.seconds)} of it "
         f"compiling) -> {path}")
     log_timing(args.out, "gate", 0, 1, wall, "done", clock.as_dict())
-    return {"stage": "gate", "wall_s": round(wall, 1), "gdnet": meta["gdnet"], "live_states": meta["live_states"],
+    return {"stage": "gate", "wall_s": round(wall, 1), "gdnet": meta["gdnet"],
+            "close_gdnet": meta["close_gdnet"], "live_states": meta["live_states"],
             "bins": len(table.states),
             "moving_bins": sum(v > 0 for v in table.move_value), "rate": table.rate, "out": path}
 

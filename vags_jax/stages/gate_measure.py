@@ -17,8 +17,9 @@ so after training both branches run from the same state:
   also pays its return to the global pose);
 * ``rate_gate.fit`` bins the success net's raw p_direct and writes the table to RUN/gate.json;
 * with ``vags.stage3_gdnet_pick="rate"`` the table is measured again with the GDNet stage 3
-  started from (stage 2's), and the GDNet whose table picks more per second is the run's
-  (``rundir.load_vags`` reads the pick from RUN/gate.json).
+  started from (stage 2's), and with stage 2's for the direct grasps and stage 3's (which
+  learned on fused close views) for those after a move ("split"); the GDNets whose table picks
+  most per second are the run's (``rundir.load_vags`` reads the pick from RUN/gate.json).
 Shapes: B = ``worlds``.
 """
 from __future__ import annotations
@@ -68,7 +69,7 @@ def make_collect(cfg, env: VagsEnv, nets: VagsNets):
         d = decide(q_grasp, q_view, 0.0, None, "q", viewpoint=cfg.vags.viewpoint)
         pos, yaw = env.grasp_pose(state, d.grasp[:, 1:], d.grasp[:, 0])
         direct = env.direct_attempt(pos, yaw)
-        moved, _ = close_view_grasp(cfg, env, state, d.view, k_img, nets.gdnet_q(params["gdnet"]),
+        moved, _ = close_view_grasp(cfg, env, state, d.view, k_img, nets.close_q(params),
                                     params.get("ggcnn"), nets.ggcnn)
         out = {"p_direct": value_at(q_success, d.grasp),
                "objects": env.n_remaining(state), "live": (env.n_remaining(state) > 0) & ~state.sim.error,
@@ -106,7 +107,8 @@ def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=pri
     states): ``states`` the (N,) per-state arrays of the live states the table was fit on.
     worlds / steps / bins / seed / count_lost default to the run's ``gate_table`` config; programs: a
     ``programs.Programs`` whose compiled collect step is reused (train.py's pipeline); gdnet:
-    "stage2" measures stage 3's networks with stage 2's GDNet (``rundir.load_vags``)."""
+    the GDNets of stage 3's networks (``rundir.GDNET_PICKS``: "stage2" grasps with stage 2's,
+    "split" directly with stage 2's and after a move with stage 3's)."""
     run_cfg = checkpoint.load_config(run_dir)
     g = run_cfg.gate_table
     worlds, steps = worlds or g.worlds or GateTable().worlds, steps or g.steps
@@ -139,7 +141,7 @@ def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=pri
     table = rate_gate.fit(rows["p_direct"], rows["direct_success"], rows["direct_seconds"],
                           rows["moved_success"], rows["moved_seconds"], bins,
                           lost_direct=rows["direct_lost"], lost_moved=rows["moved_lost"], count_lost=count_lost)
-    meta = {"networks": networks.source, "gdnet": networks.gdnet_source, "worlds": worlds, "steps": steps, "seed": seed,
+    meta = {"networks": networks.source, "gdnet": networks.gdnet_source, "close_gdnet": networks.close_source, "worlds": worlds, "steps": steps, "seed": seed,
             "objects": [stage.min_objects, stage.max_objects], "live_states": int(live.sum()),
             "viewpoint": cfg.vags.viewpoint, "local_planner": cfg.vags.local_planner,
             "lost": rate_gate.paired_lost(table, rows["p_direct"], rows["direct_lost"], rows["moved_lost"]),
@@ -167,29 +169,45 @@ def save_all(run_dir: str, table, meta, states) -> str:
     return rate_gate.save(run_dir, table, meta)
 
 
-def pick_due(run_dir: str, cfg) -> bool:
-    """Whether the table is measured twice, with stage 3's GDNet and with stage 2's
-    (``vags.stage3_gdnet_pick="rate"``, stage 3 changed GDNet, and both stages' networks kept)."""
-    return (cfg.vags.stage3_gdnet_pick == "rate" and cfg.vags.stage3_gdnet != "frozen"
-            and rundir.vags_stages(run_dir) == ["stage3", "stage2"])
+def pick_candidates(run_dir: str, cfg) -> tuple:
+    """The ``rundir.GDNET_PICKS`` the table is measured with, stage 3's own first: with
+    ``vags.stage3_gdnet_pick="rate"``, stage 3 having changed GDNet and both stages' networks
+    kept, also "stage2" and (with the "gdnet" close-view planner) "split"; else ("stage3",)."""
+    if not (cfg.vags.stage3_gdnet_pick == "rate" and cfg.vags.stage3_gdnet != "frozen"
+            and rundir.vags_stages(run_dir) == ["stage3", "stage2"]):
+        return ("stage3",)
+    return ("stage3", "stage2") + (("split",) if cfg.vags.local_planner == "gdnet" else ())
 
 
 def measure_picked(run_dir: str, log=print, programs=None, **kw):
-    """``measure``; where ``pick_due``, again with stage 2's GDNet, keeping the table (and with it
-    the GDNet, ``rundir.load_vags``) under which the gate picks more per second -> (GateTable,
-    meta, states); meta["gdnet_pick"] holds both GDNets' rates and direct success."""
-    programs = Programs() if programs is None else programs  # both measures share its compiled step
-    table, meta, states = measure(run_dir, log=log, programs=programs, **kw)
-    if not pick_due(run_dir, checkpoint.load_config(run_dir)):
+    """``measure`` with each of ``pick_candidates``, keeping the table (and with it the GDNets,
+    ``rundir.load_vags``) under which the gate picks most per second; a tie keeps the earlier
+    -> (GateTable, meta, states); meta["gdnet_pick"] holds every candidate's GDNets, rate and
+    success of the direct grasps and after a move."""
+    programs = Programs() if programs is None else programs  # every measure shares its compiled step
+    picks = pick_candidates(run_dir, checkpoint.load_config(run_dir))
+    best, tried = None, {}
+    for pick in picks:
+        got = measure(run_dir, log=log, programs=programs, gdnet=pick, **kw)
+        table, meta, states = got
+        tried[pick] = {"gdnet": meta["gdnet"], "close_gdnet": meta["close_gdnet"], "rate": table.rate,
+                       "direct_success": float(np.mean(states["direct_success"])),
+                       "moved_success": float(np.mean(states["moved_success"]))}
+        if best is None or table.rate > best[0].rate:
+            best = got
+    table, meta, states = best
+    if len(picks) == 1:
         return table, meta, states
-    other = measure(run_dir, log=log, programs=programs, gdnet="stage2", **kw)
-    tried = {m["gdnet"]: {"rate": t.rate, "direct_success": float(np.mean(st["direct_success"]))}
-             for t, m, st in ((table, meta, states), other)}
-    if other[0].rate > table.rate:
-        table, meta, states = other
-    log(f"GDNet kept: {meta['gdnet']} (" + ", ".join(
-        f"{k}: {3600 * v['rate']:.0f} picks/h, direct {100 * v['direct_success']:.1f} %" for k, v in tried.items()) + ")")
+    log(f"GDNet kept: {describe_pick(meta)} (" + "; ".join(
+        f"{k}: {3600 * v['rate']:.0f} picks/h, direct {100 * v['direct_success']:.1f} %, after a move "
+        f"{100 * v['moved_success']:.1f} %" for k, v in tried.items()) + ")")
     return table, {**meta, "gdnet_pick": tried}, states
+
+
+def describe_pick(meta: dict) -> str:
+    """The GDNets a table was measured with, e.g. "stage2 step 80, after a move stage3 step 80"."""
+    close = meta.get("close_gdnet", meta["gdnet"])
+    return meta["gdnet"] + ("" if close == meta["gdnet"] else f", after a move {close}")
 
 
 def measure_into(run_dir: str, log=print, programs=None, **kw):
@@ -211,15 +229,22 @@ def main(argv=None) -> int:
     p.add_argument("--seed", type=int, default=None, help="(default: gate_table.seed)")
     p.add_argument("--count-lost", action="store_true", default=None,
                    help="count each object a branch knocks off the table as a pick lost (default: gate_table.count_lost)")
+    p.add_argument("--gdnet", choices=tuple(rundir.GDNET_PICKS), default=None,
+                   help="measure with these GDNets of stage 3's networks only, and keep them: stage3 or stage2 "
+                   "grasps with that stage's GDNet, split directly with stage 2's and after a move with stage 3's "
+                   "(default: vags.stage3_gdnet_pick, e.g. rate: each of them, keeping the one that picks most)")
     args = p.parse_args(argv)
     for name in ("worlds", "steps", "bins"):
         if getattr(args, name) is not None and getattr(args, name) < 1:
             print(f"{PROG}: --{name} must be at least 1, got {getattr(args, name)}", file=sys.stderr)
             return 2
+    kw = dict(log=lambda m: print(m, file=sys.stderr, flush=True), worlds=args.worlds, steps=args.steps,
+              bins=args.bins, seed=args.seed, count_lost=args.count_lost)
     try:
-        table, meta, states = measure_picked(args.run, log=lambda m: print(m, file=sys.stderr, flush=True),
-                                             worlds=args.worlds, steps=args.steps, bins=args.bins, seed=args.seed,
-                                             count_lost=args.count_lost)
+        if args.gdnet is None:
+            table, meta, states = measure_picked(args.run, **kw)
+        else:
+            table, meta, states = measure(args.run, gdnet=args.gdnet, **kw)
     except (ValueError, checkpoint.CheckpointError, FileNotFoundError) as e:
         print(f"{PROG}: {e}", file=sys.stderr)
         return 2

@@ -166,8 +166,15 @@ class VagsNetworks:
     success: Any = None
     calibration: Any = None
     gate_table: Any = None  # (2, K) the "rate" gate's measured table (RUN/gate.json), None without one
+    close_gdnet: Any = None  # GDNet of the grasps after a move ("gdnet" planner) where it differs; None: ``gdnet``
     source: str = struct.field(pytree_node=False, default="")
     gdnet_source: str = struct.field(pytree_node=False, default="")  # GDNet's ("stage2 step N" where picked)
+    close_gdnet_source: str = struct.field(pytree_node=False, default="")  # close_gdnet's; "" without one
+
+    @property
+    def close_source(self) -> str:
+        """Where the GDNet of the grasps after a move came from (``gdnet_source`` without its own)."""
+        return self.close_gdnet_source or self.gdnet_source
 
 
 def networks_dir(run_dir: str, name: str) -> str:
@@ -206,14 +213,21 @@ def _vars_target(cfg: Config, kind: str) -> dict:
     return {"params": ts.params, "batch_stats": ts.batch_stats}
 
 
+# The GDNets a run with stage-3 networks can play (``vags.stage3_gdnet_pick``), as (the direct
+# grasps' GDNet, the close-view grasps' GDNet): "split" grasps directly with stage 2's GDNet and
+# after a move with stage 3's, which learned on the fused close-view maps.
+GDNET_PICKS = {"stage3": ("stage3", "stage3"), "stage2": ("stage2", "stage2"), "split": ("stage2", "stage3")}
+
+
 def load_vags(run_dir: str, cfg: Optional[Config] = None, step: Optional[int] = None,
               stage: Optional[str] = None, gdnet: Optional[str] = None) -> VagsNetworks:
     """The latest VAGS networks of a run: stage 3's (checkpoint ``step``, default its latest)
     when stage 3 saved any, else stage 2's, or those of ``stage`` ("stage2" / "stage3"); read
     from the stage's ``networks/`` directory, and GG-CNN from RUN/ggcnn (None when the run has
-    none).  With stage 3's networks, GDNet and the "q" threshold are stage 2's where ``gdnet``
-    is "stage2", or (``gdnet`` None) where RUN/gate.json picked them (``stage3_gdnet_pick``);
-    "stage3" keeps stage 3's.  CheckpointError (one line, what to run) when there are none."""
+    none).  With stage 3's networks, ``gdnet`` (a ``GDNET_PICKS`` key; None: what RUN/gate.json
+    picked, ``stage3_gdnet_pick``) says whose GDNet grasps directly and after a move; the "q"
+    threshold comes with the direct grasps' GDNet.  CheckpointError (one line, what to run)
+    when there are none."""
     cfg = checkpoint.load_config(run_dir) if cfg is None else cfg
     found = vags_stages(run_dir)
     if not found:
@@ -223,20 +237,31 @@ def load_vags(run_dir: str, cfg: Optional[Config] = None, step: Optional[int] = 
     if stage is not None and stage not in found:  # stage 3 not trained yet, or stage 2's not kept
         hint = f": train it with python train.py --out {run_dir} --resume" if stage == "stage3" else ""
         raise checkpoint.CheckpointError(f"run {run_dir} has no {stage} networks (it has {', '.join(found)}'s){hint}")
+    if gdnet is not None and gdnet not in GDNET_PICKS:
+        raise ValueError(f"gdnet must be one of {tuple(GDNET_PICKS)}, got {gdnet!r}")
     name = found[0] if stage is None else stage
+    if gdnet == "split" and name != "stage3":
+        raise checkpoint.CheckpointError(f"run {run_dir}: the 'split' GDNets need stage 3's networks, and it has "
+                                         f"{name}'s: train stage 3 with python train.py --out {run_dir} --resume")
     gd, va, thr, su, cal, s = _restore_vags(run_dir, cfg, name, step)
     source = gd_source = networks_source(name, s)
-    if name == "stage3" and (gdnet or picked_gdnet(run_dir, cfg, source)) == "stage2":
+    close, close_source = None, ""
+    pick = (gdnet or picked_gdnet(run_dir, cfg, source)) if name == "stage3" else "stage3"  # stage 2's own
+    direct_from, close_from = GDNET_PICKS[pick]
+    if "stage2" in (direct_from, close_from):
         if "stage2" not in found:
             raise checkpoint.CheckpointError(f"run {run_dir} keeps no stage-2 networks, whose GDNet was asked for")
+        gd3 = gd
         gd, _, thr, _, _, s2 = _restore_vags(run_dir, cfg, "stage2", None)
         gd_source = networks_source("stage2", s2)
+        if close_from == "stage3":
+            close, close_source = gd3, source
     gg = None
     if os.path.isdir(ggcnn_stage.ggcnn_dir(run_dir)):
         gg, _ = ggcnn_stage.load_ggcnn(run_dir)
     return VagsNetworks(gdnet=gd, vanet=va, ggcnn=gg, q_threshold=jnp.asarray(thr, jnp.float32), success=su,
-                        calibration=cal, gate_table=rate_gate.load(run_dir, source, gd_source), source=source,
-                        gdnet_source=gd_source)
+                        calibration=cal, gate_table=rate_gate.load(run_dir, source, gd_source, close_source or gd_source),
+                        close_gdnet=close, source=source, gdnet_source=gd_source, close_gdnet_source=close_source)
 
 
 def _restore_vags(run_dir: str, cfg: Config, name: str, step: Optional[int]):
@@ -254,12 +279,15 @@ def _restore_vags(run_dir: str, cfg: Config, name: str, step: Optional[int]):
 
 
 def picked_gdnet(run_dir: str, cfg: Config, source: str) -> str:
-    """"stage2" where RUN/gate.json, measured on stage-3 networks ``source``, kept stage 2's
-    GDNet (``vags.stage3_gdnet_pick="rate"``); else "stage3"."""
+    """The ``GDNET_PICKS`` key RUN/gate.json, measured on stage-3 networks ``source``, kept
+    (``vags.stage3_gdnet_pick="rate"``): "stage2", "split" (its "close_gdnet" is stage 3's), else
+    "stage3"."""
     d = rate_gate.read(run_dir) if cfg.vags.stage3_gdnet_pick == "rate" else None
     if d is None or d.get("networks") != source:
         return "stage3"
-    return str(d.get("gdnet", source)).split(" ")[0]
+    direct = str(d.get("gdnet", source)).split(" ")[0]
+    close = str(d.get("close_gdnet", d.get("gdnet", source))).split(" ")[0]
+    return next((k for k, v in GDNET_PICKS.items() if v == (direct, close)), "stage3")
 
 
 def load_nbv(run_dir: str, cfg: Optional[Config] = None) -> VagsNetworks:
@@ -309,6 +337,6 @@ def load_gdnet(run_dir: str, step: Optional[int] = None):
     return cfg, {"params": learner.params, "batch_stats": learner.batch_stats}, step
 
 
-__all__ = ["picked_gdnet", "ORDER", "BASELINES", "prerequisites", "load_nbv", "ALIASES", "DESCRIPTION", "canonical", "stage_dir", "total", "progress", "stage_key",
+__all__ = ["picked_gdnet", "GDNET_PICKS", "ORDER", "BASELINES", "prerequisites", "load_nbv", "ALIASES", "DESCRIPTION", "canonical", "stage_dir", "total", "progress", "stage_key",
            "learner_target", "stage1_gdnet", "needs_ggcnn", "ggcnn_params", "stage2_result", "VagsNetworks",
            "load_vags", "networks_dir", "save_networks", "ggcnn_reusable", "load_gdnet"]
