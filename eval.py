@@ -181,6 +181,22 @@ def main(argv=None) -> int:
         plan = requests.prepare_eval(args)  # every input, before anything is compiled
     except ValueError as e:  # includes CheckpointError and config validation
         return cli.fail(PROG, e)
+    try:
+        return _evaluate(args, plan, t_main, argv)
+    except jax.errors.JaxRuntimeError as e:  # XLA's out-of-memory; any other error keeps its traceback
+        what = cli.out_of_memory(e)
+        if what is None:
+            raise
+        print(f"{PROG}: error: out of accelerator memory ({what}): play fewer worlds at once (--rounds, --groups), "
+              f"lower net.forward_batch (--set net.forward_batch=N), or leave this process more of the device "
+              f"(fewer processes beside it, or a larger XLA_PYTHON_CLIENT_MEM_FRACTION); the reports written "
+              f"before it stay", file=sys.stderr)
+        return 1
+
+
+def _evaluate(args, plan, t_main: float, argv) -> int:
+    """``main`` once every input is checked: plays the plan's seeds, writes the reports, runs the
+    sweep, plot and recording it asks for -> exit code."""
     policy, name, cfg, groups, rounds = plan.policy, plan.name, plan.cfg, plan.groups, plan.rounds
     networks, step, out, sweep_out, compare = plan.networks, plan.step, plan.out, plan.sweep_out, plan.compare
     sweep_abs, sweep_q, time_model = plan.sweep_abs, plan.sweep_q, plan.time_model

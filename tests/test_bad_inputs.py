@@ -47,7 +47,8 @@ jax.monitoring.register_event_duration_secs_listener(_listener)
 
 
 ALLOWED_TO_COMPILE = {"test_numpy_poses_match_the_camera_module",  # checks the tests' own helpers
-                      "test_eval_without_viewpoints_plans_without_a_gate_table"}  # loads networks: a valid plan
+                      "test_eval_without_viewpoints_plans_without_a_gate_table",  # loads networks: a valid plan
+                      "test_eval_out_of_memory_is_one_line_saying_what_to_lower"}  # valid inputs; fails while playing
 
 
 @pytest.fixture(autouse=True)
@@ -1336,3 +1337,43 @@ def test_the_rate_gate_without_a_table_for_the_runs_networks_says_how_to_measure
     assert code == 2 and line == "python -m vags_jax.stages.gate_measure: --worlds must be at least 1, got 0"
     code, line = _cli(gate_measure.main, ["--run", str(tmp_path / "none")], capsys)
     assert code == 2 and line.startswith("python -m vags_jax.stages.gate_measure: ") and "none" in line, line
+
+
+# ----------------------------------------------------------------------------- out of accelerator memory
+
+_OOM = "RESOURCE_EXHAUSTED: Out of memory while trying to allocate 11.17GiB with allocator GPU_0_bfc on device 0."
+
+
+def test_eval_out_of_memory_is_one_line_saying_what_to_lower(monkeypatch, capsys):
+    """XLA's out-of-memory error while playing (e.g. two evaluations sharing a GPU) ends eval.py
+    with exit code 1 and one line naming the allocation and what to lower, not a traceback;
+    any other runtime error keeps its traceback."""
+    def oom(*a, **k):
+        raise jax.errors.JaxRuntimeError(_OOM)
+
+    monkeypatch.setattr(eval_cli.E, "evaluate", oom)
+    code = eval_cli.main(["--config", "tiny", "--policy", "heuristic", "--groups", "1", "--rounds", "1"])
+    last = capsys.readouterr().err.strip().splitlines()[-1]
+    assert code == 1
+    assert last.startswith("eval.py: error: out of accelerator memory (Out of memory while trying to allocate 11.17GiB")
+    assert "--rounds" in last and "net.forward_batch" in last and "XLA_PYTHON_CLIENT_MEM_FRACTION" in last
+
+    def other(*a, **k):
+        raise jax.errors.JaxRuntimeError("INTERNAL: something else")
+
+    monkeypatch.setattr(eval_cli.E, "evaluate", other)
+    with pytest.raises(jax.errors.JaxRuntimeError, match="something else"):
+        eval_cli.main(["--config", "tiny", "--policy", "heuristic", "--groups", "1", "--rounds", "1"])
+
+
+def test_gate_measure_out_of_memory_is_one_line(monkeypatch, tmp_path, capsys):
+    from vags_jax.stages import gate_measure
+
+    def oom(*a, **k):
+        raise jax.errors.JaxRuntimeError(_OOM)
+
+    monkeypatch.setattr(gate_measure, "measure_picked", oom)
+    code, line = _cli(gate_measure.main, ["--run", str(tmp_path)], capsys)
+    assert code == 1 and line.startswith("python -m vags_jax.stages.gate_measure: error: out of accelerator memory "
+                                         "(Out of memory while trying to allocate 11.17GiB"), line
+    assert "lower --worlds" in line and f"{tmp_path}/gate.json is unchanged" in line, line

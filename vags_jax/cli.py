@@ -83,6 +83,14 @@ def fail(prog: str, message) -> int:
     return 2
 
 
+def out_of_memory(e: BaseException) -> Optional[str]:
+    """XLA's first line without its status (what it tried to allocate) when ``e`` says the
+    accelerator ran out of memory (RESOURCE_EXHAUSTED), else None."""
+    if "RESOURCE_EXHAUSTED" not in str(e):
+        return None
+    return first_line(e, 160).replace("RESOURCE_EXHAUSTED: ", "")
+
+
 def first_line(e, limit: int = 200) -> str:
     lines = str(e).strip().splitlines()
     text = lines[0] if lines else type(e).__name__

@@ -388,7 +388,7 @@ OUT_OF_MEMORY = "out of accelerator memory"  # how run_chunks' status starts whe
 def out_of_memory(name: str, e: Exception, saved_it, out_dir: str) -> str:
     """run_chunks' one-line status for a chunk that ran out of accelerator memory: XLA's own
     first line (what it tried to allocate), the settings that lower the need, the checkpoint kept."""
-    what = str(e).split("\n")[0].replace("RESOURCE_EXHAUSTED: ", "")[:160]
+    what = cli.out_of_memory(e) or cli.first_line(e, 160)
     kept = (f"the last checkpoint is iteration {saved_it} in {os.path.join(out_dir, checkpoint.CHECKPOINT_DIR)}"
             if saved_it else "nothing was saved")
     return (f"{OUT_OF_MEMORY} in {name} ({what}): lower {name}.n_worlds or net.forward_batch (--set on a new run), "

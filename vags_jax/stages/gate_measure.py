@@ -33,6 +33,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from vags_jax import cli
 from vags_jax.benchmark.metrics import MotionTimeModel
 from vags_jax.benchmark.protocol import return_distance
 from vags_jax.config import GateTable, replace
@@ -248,6 +249,14 @@ def main(argv=None) -> int:
     except (ValueError, checkpoint.CheckpointError, FileNotFoundError) as e:
         print(f"{PROG}: {e}", file=sys.stderr)
         return 2
+    except jax.errors.JaxRuntimeError as e:  # XLA's out-of-memory; any other error keeps its traceback
+        what = cli.out_of_memory(e)
+        if what is None:
+            raise
+        print(f"{PROG}: error: out of accelerator memory ({what}): lower --worlds, or leave this process more "
+              f"of the device (fewer processes beside it, or a larger XLA_PYTHON_CLIENT_MEM_FRACTION); {os.path.join(args.run, rate_gate.GATE_FILE)} is unchanged",
+              file=sys.stderr)
+        return 1
     print(describe(table, meta))
     print(f"wrote {save_all(args.run, table, meta, states)} and {STATES_FILE} beside it")
     return 0
