@@ -9,7 +9,7 @@ The first form prints ONE JSON object: ``"decision": "grasp"`` with the grasp in
 frame, or ``"decision": "move"`` with the camera pose to move to, and ``"gate"`` / ``"reason"``:
 the gate's figures against its threshold (docs/method.md, "Decision"); ``"networks"`` and
 ``"gdnet"`` name the checkpoints played (GDNet's is stage 2's where the run's gate table kept
-it: ``vags.stage3_gdnet_pick``).  Take the frame at that
+it: ``vags.stage3_gdnet_pick``), ``"close_gdnet"`` that of the grasp after a move.  Take the frame at that
 pose and run it again with ``--local``: the close-view grasp (``vags.local_planner`` "gdnet":
 the close view fused into the global heightmaps, GDNet's argmax where it looked; "ggcnn":
 GG-CNN on the close depth image).  ``--out-image`` draws the decision on the frame.
