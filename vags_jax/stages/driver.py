@@ -304,7 +304,7 @@ def run_chunks(name: str, stage, state, start_it: int, total: int, out_dir: str,
                 state, m = stage.run(state, n)
                 m = jax.device_get(m)
         except jax.errors.JaxRuntimeError as e:
-            if "RESOURCE_EXHAUSTED" not in str(e):
+            if cli.out_of_memory(e) is None:
                 raise
             if not args.quiet:
                 print(file=sys.stderr)
@@ -319,25 +319,15 @@ def run_chunks(name: str, stage, state, start_it: int, total: int, out_dir: str,
                 board.rows(rows)
         diverged = nonfinite(m, it, finite)
         if diverged:
-            if saved_it != it and not getattr(stage, "donates", False):  # keep the last good state
-                with guard():
-                    checkpoint.save(out_dir, it, good)
-                saved_it = it
-            if not args.quiet:
-                print(file=sys.stderr)
-            return good, it, (f"{diverged}. Stopped; the last good checkpoint is iteration {saved_it} in "
-                              f"{os.path.join(out_dir, checkpoint.CHECKPOINT_DIR)}"), grasps_done, None
+            return good, it, _stop_diverged(diverged, stage, good, it, saved_it, out_dir, guard, args.quiet), \
+                grasps_done, None
         it += n
         n_chunks += 1
         grasps_done = int(m["attempts_total"][-1])
         recent = (recent + list(np.asarray(m["success_rate"])))[-max(10, chunk):]
         if not args.quiet:
-            print(progress_line(name, it, total, grasps_done, float(np.mean(recent)), float(m["epsilon"][-1]),
-                                float(m[loss_key][-1]), float(np.sum(m["attempts"])) / max(dt - clock.seconds, 1e-6),
-                                float(np.mean(m["explored"])),
-                                float(np.mean(m["view_share"])) if "view_share" in m else None,
-                                progress.eta(total - it, run_s, run_its)),
-                  end="", file=sys.stderr, flush=True)
+            print(_chunk_line(name, it, total, grasps_done, recent, m, loss_key, dt - clock.seconds,
+                              progress.eta(total - it, run_s, run_its)), end="", file=sys.stderr, flush=True)
         out_of_time = deadline is not None and time.time() > deadline
         stopping = stop is not None and stop.requested
         due = n_chunks % every == 0 if every else time.time() - last_save >= save_s
@@ -356,6 +346,29 @@ def run_chunks(name: str, stage, state, start_it: int, total: int, out_dir: str,
     if not args.quiet:
         print(file=sys.stderr)
     return state, it, "done", grasps_done, float(np.mean(recent)) if recent else None
+
+
+def _stop_diverged(diverged: str, stage, good, it: int, saved_it, out_dir: str, guard, quiet: bool) -> str:
+    """``run_chunks``' status when a chunk's metrics are not finite: the last good state (before
+    that chunk) is checkpointed at ``it`` unless already saved there or donated away."""
+    if saved_it != it and not getattr(stage, "donates", False):  # keep the last good state
+        with guard():
+            checkpoint.save(out_dir, it, good)
+        saved_it = it
+    if not quiet:
+        print(file=sys.stderr)
+    return (f"{diverged}. Stopped; the last good checkpoint is iteration {saved_it} in "
+            f"{os.path.join(out_dir, checkpoint.CHECKPOINT_DIR)}")
+
+
+def _chunk_line(name: str, it: int, total: int, grasps: int, recent: list, m: dict, loss_key: str,
+                run_seconds: float, eta) -> str:
+    """``progress_line`` after a chunk: m its metrics ((n,) arrays per key), run_seconds its time
+    without compiling, recent the latest iterations' success rates."""
+    return progress_line(name, it, total, grasps, float(np.mean(recent)), float(m["epsilon"][-1]),
+                         float(m[loss_key][-1]), float(np.sum(m["attempts"])) / max(run_seconds, 1e-6),
+                         float(np.mean(m["explored"])), float(np.mean(m["view_share"])) if "view_share" in m else None,
+                         eta)
 
 
 def _warn_recompiled(name: str, it: int, clock, recompiles: Optional[list], quiet: bool) -> None:

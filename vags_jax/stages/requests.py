@@ -307,27 +307,49 @@ def check_metrics_file(run_dir: str) -> None:
 
 
 
+def _prepare_fresh_pipeline(args, overrides) -> SimpleNamespace:
+    """``prepare_pipeline`` for a new run in ``args.out``: the preset with ``overrides``, checked."""
+    check_fresh_out(args.out)
+    cfg = C.replace(C.preset("tiny" if args.config is None else args.config), **with_devices(args, overrides))
+    check_single_device(cfg, "the whole pipeline (GG-CNN, stages 2 and 3)")
+    scene.build_spec(cfg)  # the scene's own checks (an unknown shape), before anything is written
+    check_trainable_gate(cfg)
+    if rundir.needs_ggcnn(cfg):
+        check_ggcnn_config(cfg)
+    check_net_init(cfg)
+    check_machine(cfg, rundir.ORDER, args)
+    if os.path.isdir(args.out):  # a GG-CNN already trained into --out with this config is reused
+        why = rundir.ggcnn_reusable(args.out, cfg)
+        if why:
+            raise ValueError(why)
+    return SimpleNamespace(cfg=cfg, fresh=True, changed={}, data_dir=check_data_dir(args.data_dir),
+                           stage1_arrays=None)
+
+
+def _changed_iterations(out: str, run_cfg, cfg, overrides) -> dict:
+    """The ``*.iterations`` overrides of a resumed run that change its config -> {key: (old, new)};
+    ValueError for one below the iterations done, or for a stage a later stage already built on."""
+    changed = {}
+    for key in overrides:
+        name = key.split(".")[0]
+        old, new = getattr(run_cfg, name).iterations, getattr(cfg, name).iterations
+        done = rundir.progress(out, name)
+        if new < done:
+            raise ValueError(f"{out} is already at iteration {done} of {name}: the requested {key}={new} are "
+                             f"already done, so there is nothing to train (config.json unchanged); pass "
+                             f"{key} > {done} to train further")
+        if new != old:
+            check_not_built_on(out, name)
+            changed[key] = (old, new)
+    return changed
+
+
 def prepare_pipeline(args, only):
     """The whole pipeline (``only`` None) or stage 2 / 3 alone: config, --out, and what is left
     to train, checked before anything is built.  Raises ValueError with what to fix."""
     overrides = C.parse_overrides(args.set)
-    fresh = only is None and not args.resume
-    if fresh:
-        check_fresh_out(args.out)
-        cfg = C.replace(C.preset("tiny" if args.config is None else args.config), **with_devices(args, overrides))
-        check_single_device(cfg, "the whole pipeline (GG-CNN, stages 2 and 3)")
-        scene.build_spec(cfg)  # the scene's own checks (an unknown shape), before anything is written
-        check_trainable_gate(cfg)
-        if rundir.needs_ggcnn(cfg):
-            check_ggcnn_config(cfg)
-        check_net_init(cfg)
-        check_machine(cfg, rundir.ORDER, args)
-        if os.path.isdir(args.out):  # a GG-CNN already trained into --out with this config is reused
-            why = rundir.ggcnn_reusable(args.out, cfg)
-            if why:
-                raise ValueError(why)
-        return SimpleNamespace(cfg=cfg, fresh=True, changed={}, data_dir=check_data_dir(args.data_dir),
-                               stage1_arrays=None)
+    if only is None and not args.resume:
+        return _prepare_fresh_pipeline(args, overrides)
     what = "--resume" if only is None else f"--stage {only}"
     if args.config is not None:
         raise ValueError(f"{what} takes the run's own config.json; drop --config")
@@ -351,18 +373,7 @@ def prepare_pipeline(args, only):
     if only is None and not any(rundir.progress(args.out, n) for n in rundir.ORDER):
         raise ValueError(f"{args.out} has no checkpoint yet (the run stopped before its first one); "
                          f"start it again without --resume (the directory is reused)")
-    changed = {}
-    for key in overrides:
-        name = key.split(".")[0]
-        old, new = getattr(run_cfg, name).iterations, getattr(cfg, name).iterations
-        done = rundir.progress(args.out, name)
-        if new < done:
-            raise ValueError(f"{args.out} is already at iteration {done} of {name}: the requested {key}={new} are "
-                             f"already done, so there is nothing to train (config.json unchanged); pass "
-                             f"{key} > {done} to train further")
-        if new != old:
-            check_not_built_on(args.out, name)
-            changed[key] = (old, new)
+    changed = _changed_iterations(args.out, run_cfg, cfg, overrides)
     names = rundir.ORDER if only is None else (only,)
     for name in names:
         d = rundir.stage_dir(args.out, name)
