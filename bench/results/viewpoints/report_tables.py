@@ -40,3 +40,13 @@ def table(title, cases):
         r = row(d)
         print(f"| {seed} | {nets} | {policy} | {r[0]:.1f} | {r[1]:.1f} | {r[2]:.1f} | {r[3]:.3f} | {r[4]:.1f} | "
               f"{r[5]:.1f} | {r[6]:.0f} |")
+
+
+def differences(title, columns, rows):
+    """Prints a markdown table of differences in points: columns (names after "seed"), rows
+    (seed, value, ...) tuples, each value signed to one decimal."""
+    print(f"\n{title}\n")
+    print("| seed | " + " | ".join(columns) + " |")
+    print("|---:|" + "---:|" * len(columns))
+    for r in rows:
+        print("| " + " | ".join([str(r[0])] + [f"{x:+.1f}" for x in r[1:]]) + " |")

@@ -8,7 +8,7 @@ import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "..", ".."))
-from report_tables import find, row, table  # noqa: E402
+from report_tables import differences, find, row, table  # noqa: E402
 
 
 def main():
@@ -24,14 +24,10 @@ def main():
         gains.append((s, rs[0] - rn[0], rs[1] - rn[1], rs[2] - rn[2], r2[0] - rn[0], r2[1] - rn[1], r2[2] - rn[2],
                       rs[0] - r2[0], rs[1] - r2[1]))
     table("Sixth run's networks: the split pick against stage 2's GDNet for both", cases)
-    print("\nPoints: split VAGS − ablation (success, 6-10 success, 6-10 clearing); stage-2 VAGS − ablation "
-          "(same); split − stage-2 VAGS (success, 6-10 success)\n")
-    print("| seed | split − abl.: success | 6-10 success | 6-10 clearing | stage 2 − abl.: success | 6-10 success "
-          "| 6-10 clearing | split − stage 2: success | 6-10 success |")
-    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
-    for g in gains:
-        print("| " + " | ".join([str(g[0])] + [f"{x:+.1f}" for x in g[1:]]) + " |")
-
+    differences("Points: split VAGS − ablation (success, 6-10 success, 6-10 clearing); stage-2 VAGS − ablation "
+                "(same); split − stage-2 VAGS (success, 6-10 success)",
+                ["split − abl.: success", "6-10 success", "6-10 clearing", "stage 2 − abl.: success", "6-10 success",
+                 "6-10 clearing", "split − stage 2: success", "6-10 success"], gains)
 
 if __name__ == "__main__":
     main()
