@@ -81,6 +81,13 @@ def test_stage3_gdnet_and_its_pick_are_checked():
         C.replace(C.Config(), **{"vags.stage3_gdnet_pick": "best"})
 
 
+def test_close_region_is_checked():
+    assert C.Config().vags.close_region == "seen"
+    assert C.replace(C.Config(), **{"vags.close_region": "map"}).vags.close_region == "map"
+    with pytest.raises(ValueError, match=r"vags\.close_region must be one of \('seen', 'map'\), got 'all'"):
+        C.replace(C.Config(), **{"vags.close_region": "all"})
+
+
 def test_a_saved_config_without_a_later_field_reads_the_value_its_run_trained_with(tmp_path):
     """A run written before ``vags.stage3_gdnet`` trained stage 3 as "all", and one written
     before ``vags.stage3_gdnet_pick`` kept stage 3's GDNet ("last"; today's default is "rate"):
@@ -90,11 +97,12 @@ def test_a_saved_config_without_a_later_field_reads_the_value_its_run_trained_wi
     from vags_jax.stages import checkpoint
 
     old = C.to_dict(C.tiny())
-    del old["vags"]["stage3_gdnet"], old["vags"]["stage3_gdnet_pick"]
+    del old["vags"]["stage3_gdnet"], old["vags"]["stage3_gdnet_pick"], old["vags"]["close_region"]
     (tmp_path / "old").mkdir()
     (tmp_path / "old" / "config.json").write_text(json.dumps(old))
     legacy = checkpoint.load_config(str(tmp_path / "old")).vags
     assert (legacy.stage3_gdnet, legacy.stage3_gdnet_pick) == ("all", "last")
+    assert legacy.close_region == "seen"  # where runs before the field grasped after a move
     new = C.replace(C.tiny(), **{"vags.stage3_gdnet": "direct"})
     checkpoint.save_config(str(tmp_path / "new"), new)
     assert checkpoint.load_config(str(tmp_path / "new")).vags == new.vags

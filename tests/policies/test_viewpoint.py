@@ -201,15 +201,16 @@ def test_decision_picks_each_branch_on_hand_set_q_maps():
     assert np.asarray(g.view).tolist() == [[4, 1], [0, 3], [1, 1]]
 
 
-@pytest.mark.parametrize("planner", ["ggcnn", "gdnet"])
-def test_decision_plans_one_or_two_motions(cfg, env, planner):
+@pytest.mark.parametrize("planner,region", [("ggcnn", "seen"), ("gdnet", "seen"), ("gdnet", "map")])
+def test_decision_plans_one_or_two_motions(cfg, env, planner, region):
     """plan_attempt on a hand-made decision: the direct world grasps GDNet's pixel from the
     global pose (1 motion); the other moves above VANet's pixel first (2 motions) and its
     approach starts there.  With the "gdnet" close-view planner the grasp after the move is
-    GDNet's argmax among the cells the close view saw, at the fused map's height."""
+    GDNet's argmax among the cells the close view saw (``vags.close_region="seen"``) or on the
+    whole fused map ("map"), at the fused map's height."""
     from vags_jax.policies.decision import Decision, plan_attempt
 
-    pcfg = C.replace(cfg, **{"vags.local_planner": planner})
+    pcfg = C.replace(cfg, **{"vags.local_planner": planner, "vags.close_region": region})
     xy = np.array([[0.08, -0.05], [-0.06, 0.07]], np.float32)
     pos = np.zeros((2, 2, 3), np.float32)
     pos[:, FLAT, :2], pos[:, FLAT, 2] = xy, 0.0125
@@ -234,7 +235,9 @@ def test_decision_plans_one_or_two_motions(cfg, env, planner):
     assert float(attempt.yaw[1]) == pytest.approx(float(direct_yaw[1]))
     assert float(attempt.view_travel[0]) == pytest.approx(float(np.linalg.norm(view[0] - cfg.camera.global_position)))
     assert float(attempt.view_travel[1]) == 0.0
-    if planner == "gdnet":
+    if planner == "gdnet" and region == "map":  # the ramp's corner, which the close view did not see
+        assert np.asarray(close.action[0]).tolist() == [2, 0, 0] and not bool(close.seen[0, 0, 0])
+    elif planner == "gdnet":
         seen = np.asarray(close.seen[0])
         rot, row, col = np.asarray(close.action[0]).tolist()
         assert 0 < seen.sum() < H * H and seen[row, col] and rot == 2

@@ -647,6 +647,7 @@ VAGS_VIEW_ESTIMATES = ("mean", "vanet")
 VAGS_VIEWPOINTS = ("vanet", "grasp")
 VAGS_STAGE3_GDNET = ("all", "direct", "frozen")
 VAGS_STAGE3_GDNET_PICKS = ("rate", "last")
+VAGS_CLOSE_REGIONS = ("seen", "map")
 
 
 @dataclass(frozen=True)
@@ -700,6 +701,10 @@ class Vags:
       second (the "q" threshold comes with the direct grasps' GDNet; RUN/gate.json records every
       candidate); stage 3's GDNet alone varied from 13 points worse to 4 better across
       trainings.  "last": stage 3's GDNet, always.  Runs written before this field read "last".
+    close_region: where the "gdnet" planner grasps after a move.  "seen": GDNet's argmax among
+      the cells the close view saw (anywhere if it saw none); "map": its argmax anywhere on the
+      fused maps, so a move can only add grasps (bench/RESULTS.md, "fifteenth look": after a move
+      with "seen", grasps in the easiest states succeeded 3-4 points less than direct ones).
     train_ggcnn: the pipeline (train.py with no --stage) also trains GG-CNN when local_planner
       is "gdnet", which does not use it (for eval.py --policy ggcnn / ggcnn-close); with "ggcnn"
       it always does.  ``train.py --stage ggcnn --out RUN`` adds one to a run later.
@@ -720,6 +725,7 @@ class Vags:
     view_bonus: float = 1.0
     stage3_gdnet: str = "all"
     stage3_gdnet_pick: str = "rate"
+    close_region: str = "seen"
     train_ggcnn: bool = False
 
     def __post_init__(self):
@@ -734,6 +740,8 @@ class Vags:
                f"Vags.stage3_gdnet must be one of {VAGS_STAGE3_GDNET}, got {self.stage3_gdnet!r}")
         _check(self.stage3_gdnet_pick in VAGS_STAGE3_GDNET_PICKS,
                f"Vags.stage3_gdnet_pick must be one of {VAGS_STAGE3_GDNET_PICKS}, got {self.stage3_gdnet_pick!r}")
+        _check(self.close_region in VAGS_CLOSE_REGIONS,
+               f"Vags.close_region must be one of {VAGS_CLOSE_REGIONS}, got {self.close_region!r}")
         _check(self.view_reward in VAGS_VIEW_REWARDS,
                f"Vags.view_reward must be one of {VAGS_VIEW_REWARDS}, got {self.view_reward!r}")
         if self.threshold is not None:

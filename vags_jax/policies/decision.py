@@ -173,15 +173,16 @@ def decide(q_grasp: jax.Array, q_view: jax.Array, threshold, q_success: Optional
 
 
 def fused_grasp(color: jax.Array, height: jax.Array, depth: jax.Array, rgb: jax.Array, pose: jax.Array,
-                cam_cfg, ws_cfg, gdnet_q: Callable):
+                cam_cfg, ws_cfg, gdnet_q: Callable, anywhere: bool = False):
     """The "gdnet" close-view planner's grasp: the close images depth (B, h, w) / rgb (B, h, w, 3)
     taken at pose (B, 4, 4) with camera cam_cfg, fused into the global maps color (B, H, W, 3) /
     height (B, H, W) (``view_fusion``), then GDNet's argmax among the cells the close view saw
-    (anywhere if it saw none) -> (action (B, 3) int32 [rotation, row, col], its Q (B,) float32,
-    the fused color (B, H, W, 3) and height (B, H, W), seen (B, H, W) bool)."""
+    (anywhere if it saw none, or with ``anywhere``: ``vags.close_region="map"``) -> (action
+    (B, 3) int32 [rotation, row, col], its Q (B,) float32, the fused color (B, H, W, 3) and
+    height (B, H, W), seen (B, H, W) bool)."""
     color, height, seen = view_fusion.fuse_close_view(color, height, depth, rgb, pose, cam_cfg, ws_cfg)
     q = gdnet_q(color, height)  # (B, R, H, W)
-    region = jnp.where(seen.any(axis=(1, 2), keepdims=True), seen, True)
+    region = jnp.where(seen.any(axis=(1, 2), keepdims=True) & (not anywhere), seen, True)
     action, q_max = greedy(jnp.where(region[:, None], q, -jnp.inf))
     return action, q_max, color, height, seen
 
@@ -198,8 +199,9 @@ def close_view_grasp(cfg: Config, env: VagsEnv, state: EnvState, view: jax.Array
     if cfg.vags.local_planner == "gdnet":
         if gdnet_q is None:
             raise ValueError("the 'gdnet' close-view planner needs GDNet")
+        anywhere = cfg.vags.close_region == "map"
         action, _, color, height, seen = fused_grasp(state.color, state.height, image.depth, image.rgb, pose,
-                                                     cfg.camera, cfg.workspace, gdnet_q)
+                                                     cfg.camera, cfg.workspace, gdnet_q, anywhere)
         position, yaw = env.grasp_pose(state.replace(height=height), action[:, 1:], action[:, 0])
         close = CloseView(image=image, color=color, height=height, seen=seen, action=action)
     else:

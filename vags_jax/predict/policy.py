@@ -292,7 +292,8 @@ def _global_program(params, depth, rgb, pose, *, cfg, cam, gdnet_only):
 def _close_gdnet_program(params, color, height, depth, rgb, pose, *, cfg, cam):
     """The "gdnet" close-view planner on one close frame, fused into the global maps (1, H, W)."""
     action, q, _, fused, seen = decision.fused_grasp(color, height, depth[None], rgb[None], pose[None], cam,
-                                                     cfg.workspace, _nets(cfg).close_q(params))
+                                                     cfg.workspace, _nets(cfg).close_q(params),
+                                                     cfg.vags.close_region == "map")
     position, yaw = grasp_pose(cfg, fused, action[:, 1:], action[:, 0])
     return {"grasp": action, "q": q, "position": position, "yaw": yaw, "seen": seen.sum()}
 
