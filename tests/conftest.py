@@ -67,9 +67,13 @@ if os.environ.get("VAGS_JAX_TEST_COMPILE_LOG"):
 # The costliest test files, longest first (seconds on 2 cores: tests/README.md).  With
 # `--no-loadscope-reorder` (pyproject.toml) pytest-xdist hands out files in collection order, so
 # these start at once and the two workers end together (longest first); the rest keep their order.
+# The medium files after them, so that the last files handed out are short ones.  Files that load
+# a program another file compiles stay out (benchmark/test_compare.py after test_evaluate.py,
+# predict/test_predict.py after policies/test_viewpoint.py), so that they run after it.
 LONGEST_FIRST = ("stages/test_stages.py", "stages/test_data_parallel.py", "stages/test_vpg_stage.py",
-                 "sim/test_clutter.py", "sim/test_simulator.py", "ggcnn/test_ggcnn_data.py",
-                 "benchmark/test_evaluate.py", "sim/test_warp_parity.py")
+                 "sim/test_warp_parity.py", "sim/test_simulator.py", "ggcnn/test_ggcnn_data.py",
+                 "sim/test_clutter.py", "benchmark/test_evaluate.py", "policies/test_viewpoint.py",
+                 "sim/test_push.py", "env/test_env.py", "test_bad_inputs.py")
 
 
 def pytest_collection_modifyitems(config, items):
