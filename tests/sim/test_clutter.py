@@ -15,21 +15,26 @@ PILE_WORLDS = 12
 
 
 @pytest.fixture(scope="module")
-def clutter_env():
-    """Tiny training-set scenes (2 boxes + 1 capsule, piled), MJX jax."""
+def clutter_env(tiny_cfg):
+    """Tiny training-set scenes (2 boxes + 1 capsule, piled), MJX jax: the conftest's tiny_cfg,
+    whose reset of 2 worlds the stages' environment compiles too (one program for the suite)."""
     from vags_jax.env import VagsEnv
 
-    cfg = replace(C.tiny(), **{"stage1.n_worlds": 2})
-    return VagsEnv(cfg)
+    return VagsEnv(tiny_cfg)
+
+
+def _reset_in_pairs(env, key):
+    """PILE_WORLDS worlds of max_objects objects, reset 2 at a time (the 2-world reset program
+    that tiny_cfg's stages compile; worlds are independent draws either way) and joined."""
+    n = np.full(2, env.cfg.scene.max_objects, np.int32)
+    parts = [env.reset(jax.random.fold_in(key, i), n) for i in range(PILE_WORLDS // 2)]
+    assert all(np.ndim(x) and np.shape(x)[0] == 2 for x in jax.tree.leaves(parts[0]))  # every leaf per world
+    return jax.tree.map(lambda *xs: jnp.concatenate(xs), *parts)
 
 
 @pytest.fixture(scope="module")
 def two_resets(clutter_env):
-    env = clutter_env
-    n = np.full(PILE_WORLDS, env.cfg.scene.max_objects, np.int32)
-    a = env.reset(jax.random.PRNGKey(1), n)
-    b = env.reset(jax.random.PRNGKey(2), n)
-    return a, b
+    return _reset_in_pairs(clutter_env, jax.random.PRNGKey(1)), _reset_in_pairs(clutter_env, jax.random.PRNGKey(2))
 
 
 def test_sizes_and_colours_vary_across_worlds_and_resets_within_ranges(clutter_env, two_resets):
