@@ -142,7 +142,8 @@ def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=pri
     table = rate_gate.fit(rows["p_direct"], rows["direct_success"], rows["direct_seconds"],
                           rows["moved_success"], rows["moved_seconds"], bins,
                           lost_direct=rows["direct_lost"], lost_moved=rows["moved_lost"], count_lost=count_lost)
-    meta = {"networks": networks.source, "gdnet": networks.gdnet_source, "close_gdnet": networks.close_source, "worlds": worlds, "steps": steps, "seed": seed,
+    meta = {"networks": networks.source, "gdnet": networks.gdnet_source, "close_gdnet": networks.close_source,
+            "worlds": worlds, "steps": steps, "seed": seed,
             "objects": [stage.min_objects, stage.max_objects], "live_states": int(live.sum()),
             "viewpoint": cfg.vags.viewpoint, "local_planner": cfg.vags.local_planner,
             "lost": rate_gate.paired_lost(table, rows["p_direct"], rows["direct_lost"], rows["moved_lost"]),
@@ -253,9 +254,10 @@ def main(argv=None) -> int:
         what = cli.out_of_memory(e)
         if what is None:
             raise
+        gate_file = os.path.join(args.run, rate_gate.GATE_FILE)
         print(f"{PROG}: error: out of accelerator memory ({what}): lower --worlds, or leave this process more "
-              f"of the device (fewer processes beside it, or a larger XLA_PYTHON_CLIENT_MEM_FRACTION); {os.path.join(args.run, rate_gate.GATE_FILE)} is unchanged",
-              file=sys.stderr)
+              f"of the device (fewer processes beside it, or a larger XLA_PYTHON_CLIENT_MEM_FRACTION); "
+              f"{gate_file} is unchanged", file=sys.stderr)
         return 1
     print(describe(table, meta))
     print(f"wrote {save_all(args.run, table, meta, states)} and {STATES_FILE} beside it")
