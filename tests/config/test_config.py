@@ -58,18 +58,16 @@ def test_vpg_and_push_sections_are_checked():
         C.check_vpg_fits(small)
 
 
-def test_view_estimate_is_checked():
-    assert C.Config().vags.view_estimate == "mean"
-    assert C.replace(C.Config(), **{"vags.view_estimate": "vanet"}).vags.view_estimate == "vanet"
-    with pytest.raises(ValueError, match=r"vags\.view_estimate must be one of \('mean', 'vanet'\), got 'max'"):
-        C.replace(C.Config(), **{"vags.view_estimate": "max"})
-
-
-def test_viewpoint_is_checked():
-    assert C.Config().vags.viewpoint == "vanet"
-    assert C.replace(C.Config(), **{"vags.viewpoint": "grasp"}).vags.viewpoint == "grasp"
-    with pytest.raises(ValueError, match=r"vags\.viewpoint must be one of \('vanet', 'grasp'\), got 'random'"):
-        C.replace(C.Config(), **{"vags.viewpoint": "random"})
+@pytest.mark.parametrize("field,default,other,bad,choices", [
+    ("view_estimate", "mean", "vanet", "max", r"\('mean', 'vanet'\)"),
+    ("viewpoint", "vanet", "grasp", "random", r"\('vanet', 'grasp'\)"),
+    ("close_region", "seen", "map", "all", r"\('seen', 'map'\)"),
+])
+def test_vags_choice_is_checked(field, default, other, bad, choices):
+    assert getattr(C.Config().vags, field) == default
+    assert getattr(C.replace(C.Config(), **{f"vags.{field}": other}).vags, field) == other
+    with pytest.raises(ValueError, match=rf"vags\.{field} must be one of {choices}, got '{bad}'"):
+        C.replace(C.Config(), **{f"vags.{field}": bad})
 
 
 def test_stage3_gdnet_and_its_pick_are_checked():
@@ -79,13 +77,6 @@ def test_stage3_gdnet_and_its_pick_are_checked():
         C.replace(C.Config(), **{"vags.stage3_gdnet": "none"})
     with pytest.raises(ValueError, match=r"vags\.stage3_gdnet_pick must be one of \('rate', 'last'\), got 'best'"):
         C.replace(C.Config(), **{"vags.stage3_gdnet_pick": "best"})
-
-
-def test_close_region_is_checked():
-    assert C.Config().vags.close_region == "seen"
-    assert C.replace(C.Config(), **{"vags.close_region": "map"}).vags.close_region == "map"
-    with pytest.raises(ValueError, match=r"vags\.close_region must be one of \('seen', 'map'\), got 'all'"):
-        C.replace(C.Config(), **{"vags.close_region": "all"})
 
 
 def test_a_saved_config_without_a_later_field_reads_the_value_its_run_trained_with(tmp_path):

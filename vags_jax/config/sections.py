@@ -704,7 +704,7 @@ class Vags:
     close_region: where the "gdnet" planner grasps after a move.  "seen": GDNet's argmax among
       the cells the close view saw (anywhere if it saw none); "map": its argmax anywhere on the
       fused maps, so a move can only add grasps (bench/RESULTS.md, "fifteenth look": after a move
-      with "seen", grasps in the easiest states succeeded 3-4 points less than direct ones).
+      with "seen", grasps in the easiest half of states succeeded 1-5 points less than direct ones).
     train_ggcnn: the pipeline (train.py with no --stage) also trains GG-CNN when local_planner
       is "gdnet", which does not use it (for eval.py --policy ggcnn / ggcnn-close); with "ggcnn"
       it always does.  ``train.py --stage ggcnn --out RUN`` adds one to a run later.

@@ -8,7 +8,7 @@ import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", ".."))
-from report_tables import find, row, table  # noqa: E402
+from report_tables import differences, find, row, table  # noqa: E402
 
 
 def main():
@@ -26,12 +26,10 @@ def main():
         gains.append((s, rv[0] - rn[0], rv[1] - rn[1], rv[2] - rn[2], rv[1] - ra[1], rv[2] - ra[2],
                       rv[1] - r2[1], rv[2] - r2[2]))
     table("Eleventh run: today's defaults", cases)
-    print("\nVAGS minus an ablation, points\n")
-    print("| seed | − its ablation: success | 6-10 success | 6-10 clearing | − the ablation again: 6-10 success | "
-          "6-10 clearing | − stage-2 ablation: 6-10 success | 6-10 clearing |")
-    print("|---:|---:|---:|---:|---:|---:|---:|---:|")
-    for g in gains:
-        print("| " + " | ".join([str(g[0])] + [f"{x:+.1f}" for x in g[1:]]) + " |")
+    differences("VAGS minus an ablation, points",
+                ["− its ablation: success", "6-10 success", "6-10 clearing",
+                 "− the ablation again: 6-10 success", "6-10 clearing", "− stage-2 ablation: 6-10 success",
+                 "6-10 clearing"], gains)
 
 
 if __name__ == "__main__":

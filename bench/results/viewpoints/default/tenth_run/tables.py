@@ -7,7 +7,7 @@ import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", ".."))
-from report_tables import find, row, table  # noqa: E402
+from report_tables import differences, find, row, table  # noqa: E402
 
 
 def main():
@@ -27,13 +27,10 @@ def main():
         gains.append((s, rd[0] - rdn[0], rd[1] - rdn[1], rd[2] - rdn[2], rd[1] - r2[1],
                       ra[0] - ran[0], ra[1] - ran[1], ra[2] - ran[2], ra[1] - r2[1]))
     table("Tenth run: stage 3 direct (the default) and all from one stage 2", cases)
-    print("\nVAGS minus an ablation, points\n")
-    print("| seed | direct - its ablation: success | 6-10 success | 6-10 clearing | direct - stage-2 ablation: "
-          "6-10 success | all - its ablation: success | 6-10 success | 6-10 clearing | all - stage-2 ablation: "
-          "6-10 success |")
-    print("|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
-    for g in gains:
-        print("| " + " | ".join([str(g[0])] + [f"{x:+.1f}" for x in g[1:]]) + " |")
+    differences("VAGS minus an ablation, points",
+                ["direct - its ablation: success", "6-10 success", "6-10 clearing",
+                 "direct - stage-2 ablation: 6-10 success", "all - its ablation: success", "6-10 success",
+                 "6-10 clearing", "all - stage-2 ablation: 6-10 success"], gains)
 
 
 if __name__ == "__main__":
