@@ -439,6 +439,33 @@ def test_the_pipeline_measures_the_rate_gate_table_that_eval_plays(runs, tmp_pat
         assert report["overall"]["viewpoint_rate"] == 0.0
 
 
+def test_the_gate_measure_can_follow_the_moves(runs, programs):
+    """``gate_measure.measure(follow="moved")`` (``--follow moved``, a diagnostic of rounds that
+    always move): the piles go on from the grasp after a move instead of the direct one.  The
+    first attempt's rows are the same either way, and each pile holds, at its next attempt, the
+    objects the branch it followed left; some pile's two branches left different numbers."""
+    from vags_jax.stages import gate_measure
+
+    differ = False
+    for seed in range(8):  # until a pile's branches disagree (the tiny run's two piles often agree)
+        rows = {f: gate_measure.measure(runs[0], seed=seed, log=lambda m: None, programs=programs, follow=f)[2]
+                for f in gate_measure.FOLLOW}
+        first = [{k: v[r["attempt"] == 0] for k, v in r.items()} for r in rows.values()]
+        for k in first[0]:
+            np.testing.assert_array_equal(first[0][k], first[1][k], err_msg=k)
+        for f, r in rows.items():
+            other = "direct" if f == "moved" else "moved"
+            for w in np.unique(r["world"]):
+                i, j = (np.flatnonzero((r["world"] == w) & (r["attempt"] == t)) for t in (0, 1))
+                if i.size and j.size:
+                    taken = {b: int(r[f"{b}_success"][i[0]]) + int(r[f"{b}_lost"][i[0]]) for b in (f, other)}
+                    assert r["objects"][j[0]] == r["objects"][i[0]] - taken[f], (f, seed, w)
+                    differ |= taken[f] != taken[other]
+        if differ:
+            break
+    assert differ, "no pile whose two branches left different numbers of objects: nothing was checked"
+
+
 def test_metrics_are_sane(runs):
     rows = _metrics(os.path.join(runs[0], "metrics.jsonl"))
     for r in rows:

@@ -16,6 +16,8 @@ so after training both branches run from the same state:
   physics, with the benchmark's modelled robot seconds (``MotionTimeModel``; a failed grasp
   also pays its return to the global pose);
 * ``rate_gate.fit`` bins the success net's raw p_direct and writes the table to RUN/gate.json;
+* ``--follow moved`` (a diagnostic, written under ``--out``): the piles follow the grasps after
+  a move instead, as in rounds that always move, to see how a branch's failures compound;
 * with ``vags.stage3_gdnet_pick="rate"`` the table is measured again with the GDNet stage 3
   started from (stage 2's), and with stage 2's for the direct grasps and stage 3's (which
   learned on fused close views) for those after a move ("split"); the GDNets whose table picks
@@ -37,7 +39,7 @@ from vags_jax import cli
 from vags_jax.benchmark.metrics import MotionTimeModel
 from vags_jax.benchmark.protocol import return_distance
 from vags_jax.config import GateTable, replace
-from vags_jax.env import VagsEnv
+from vags_jax.env import VagsEnv, select_attempt
 from vags_jax.policies import rate_gate
 from vags_jax.policies.catalog import vags_params
 from vags_jax.policies.decision import VagsNets, close_view_grasp, decide, value_at
@@ -46,16 +48,18 @@ from vags_jax.stages.programs import Programs
 
 PROG = "python -m vags_jax.stages.gate_measure"
 STATES_FILE = "gate_states.npz"
+FOLLOW = ("direct", "moved")  # the branch the piles follow from one measured state to the next
 
 
 def make_collect(cfg, env: VagsEnv, nets: VagsNets):
-    """-> jitted ``(params, key, state) -> (next state, per-world dict of (B,) arrays)``:
+    """-> jitted ``(params, key, state, follow_moved) -> (next state, per-world dict of (B,) arrays)``:
     ``p_direct`` the success net's raw estimate at GDNet's argmax; for each branch ("direct",
     "moved") its ``success``, ``lost`` (objects that left the table without a grasp),
     ``motions``, ``travel`` (m, camera move + approach + descend + lift) and ``back`` (m, the
     return to the global pose after a failure); ``objects`` (int32) on the table before the
     attempt; ``live`` worlds with objects and no physics error.  The next state follows the
-    direct grasp."""
+    direct grasp, or the grasp after the move where follow_moved (() bool, traced: one program
+    for both) is set."""
     start = jnp.asarray(cfg.camera.global_position, jnp.float32)
 
     def branch(name, state, attempt):
@@ -64,7 +68,7 @@ def make_collect(cfg, env: VagsEnv, nets: VagsNets):
         return {f"{name}_success": r.success, f"{name}_lost": env.knocked_off(state, after, r.success), f"{name}_motions": attempt.motions,
                 f"{name}_travel": r.approach + r.descend + r.lift + attempt.view_travel, f"{name}_back": back}
 
-    def step(params, key, state):
+    def step(params, key, state, follow_moved):
         k_img, k_obs = jax.random.split(key)
         q_grasp, q_view, q_success = nets.q_maps(params, state.color, state.height)
         d = decide(q_grasp, q_view, 0.0, None, "q", viewpoint=cfg.vags.viewpoint)
@@ -75,7 +79,8 @@ def make_collect(cfg, env: VagsEnv, nets: VagsNets):
         out = {"p_direct": value_at(q_success, d.grasp),
                "objects": env.n_remaining(state), "live": (env.n_remaining(state) > 0) & ~state.sim.error,
                **branch("direct", state, direct), **branch("moved", state, moved)}
-        nxt, _ = env.step_attempt(state, direct, k_obs if cfg.camera.noise.enabled else None)
+        follow = select_attempt(jnp.broadcast_to(follow_moved, (state.n_worlds,)), moved, direct)
+        nxt, _ = env.step_attempt(state, follow, k_obs if cfg.camera.noise.enabled else None)
         return nxt, out
 
     return jax.jit(step)
@@ -103,13 +108,17 @@ def due(run_dir: str, cfg) -> bool:
 
 
 def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=print, programs=None,
-            count_lost=None, gdnet="stage3"):
+            count_lost=None, gdnet="stage3", follow="direct"):
     """The gate table of a trained run (stage 3's networks, else stage 2's) -> (GateTable, meta,
-    states): ``states`` the (N,) per-state arrays of the live states the table was fit on.
+    states): ``states`` the (N,) per-state arrays of the live states the table was fit on, with
+    each state's ``world`` and ``attempt`` (its index along the pile).
     worlds / steps / bins / seed / count_lost default to the run's ``gate_table`` config; programs: a
     ``programs.Programs`` whose compiled collect step is reused (train.py's pipeline); gdnet:
     the GDNets of stage 3's networks (``rundir.GDNET_PICKS``: "stage2" grasps with stage 2's,
-    "split" directly with stage 2's and after a move with stage 3's)."""
+    "split" directly with stage 2's and after a move with stage 3's); follow: the branch the
+    piles follow between attempts (``FOLLOW``; "moved" makes a diagnostic, not the gate's table)."""
+    if follow not in FOLLOW:
+        raise ValueError(f"follow must be one of {FOLLOW}, got {follow!r}")
     run_cfg = checkpoint.load_config(run_dir)
     g = run_cfg.gate_table
     worlds, steps = worlds or g.worlds or GateTable().worlds, steps or g.steps
@@ -130,8 +139,9 @@ def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=pri
     parts: dict[str, list] = {}
     for t in range(steps):
         key, k = jax.random.split(key)
-        state, out = step(params, k, state)
-        for name, v in jax.device_get(out).items():
+        state, out = step(params, k, state, jnp.asarray(follow == "moved"))
+        out = {**jax.device_get(out), "world": np.arange(worlds), "attempt": np.full(worlds, t)}
+        for name, v in out.items():
             parts.setdefault(name, []).append(np.asarray(v))
         log(f"gate table: attempt {t + 1}/{steps} in {worlds} worlds, {time.time() - t0:.0f} s")
     rows = {k: np.concatenate(v) for k, v in parts.items()}
@@ -146,10 +156,11 @@ def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=pri
             "worlds": worlds, "steps": steps, "seed": seed,
             "objects": [stage.min_objects, stage.max_objects], "live_states": int(live.sum()),
             "viewpoint": cfg.vags.viewpoint, "local_planner": cfg.vags.local_planner,
+            "close_region": cfg.vags.close_region, "follow": follow,
             "lost": rate_gate.paired_lost(table, rows["p_direct"], rows["direct_lost"], rows["moved_lost"]),
             "wall_s": round(time.time() - t0, 1), "device": str(jax.devices()[0])}
     states = {k: rows[k] for k in ("p_direct", "direct_success", "moved_success", "direct_lost", "moved_lost",
-                                   "direct_seconds", "moved_seconds", "objects")}
+                                   "direct_seconds", "moved_seconds", "objects", "world", "attempt")}
     return table, meta, states
 
 
@@ -235,13 +246,22 @@ def main(argv=None) -> int:
                    help="measure with these GDNets of stage 3's networks only, and keep them: stage3 or stage2 "
                    "grasps with that stage's GDNet, split directly with stage 2's and after a move with stage 3's "
                    "(default: vags.stage3_gdnet_pick, e.g. rate: each of them, keeping the one that picks most)")
+    p.add_argument("--follow", choices=FOLLOW, default="direct",
+                   help="the branch the piles follow between measured attempts: direct (the gate's table) or moved "
+                   "(a diagnostic of rounds that always move; needs --out)")
+    p.add_argument("--out", default=None, help="write gate.json and gate_states.npz into this directory instead "
+                   "of the run's (the run's table is left as it is)")
     args = p.parse_args(argv)
+    if args.follow == "moved" and args.out is None:
+        print(f"{PROG}: --follow moved measures a diagnostic, not the gate's table: give --out DIR for it "
+              f"(RUN/gate.json is left as it is)", file=sys.stderr)
+        return 2
     for name in ("worlds", "steps", "bins"):
         if getattr(args, name) is not None and getattr(args, name) < 1:
             print(f"{PROG}: --{name} must be at least 1, got {getattr(args, name)}", file=sys.stderr)
             return 2
     kw = dict(log=lambda m: print(m, file=sys.stderr, flush=True), worlds=args.worlds, steps=args.steps,
-              bins=args.bins, seed=args.seed, count_lost=args.count_lost)
+              bins=args.bins, seed=args.seed, count_lost=args.count_lost, follow=args.follow)
     try:
         if args.gdnet is None:
             table, meta, states = measure_picked(args.run, **kw)
@@ -260,7 +280,10 @@ def main(argv=None) -> int:
               f"{gate_file} is unchanged", file=sys.stderr)
         return 1
     print(describe(table, meta))
-    print(f"wrote {save_all(args.run, table, meta, states)} and {STATES_FILE} beside it")
+    if args.out is not None:
+        os.makedirs(args.out, exist_ok=True)
+        meta = {**meta, "run": args.run}
+    print(f"wrote {save_all(args.run if args.out is None else args.out, table, meta, states)} and {STATES_FILE} beside it")
     return 0
 
 
