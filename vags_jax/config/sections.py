@@ -703,8 +703,8 @@ class Vags:
       trainings.  "last": stage 3's GDNet, always.  Runs written before this field read "last".
     close_region: where the "gdnet" planner grasps after a move.  "seen": GDNet's argmax among
       the cells the close view saw (anywhere if it saw none); "map": its argmax anywhere on the
-      fused maps, so a move can only add grasps (bench/RESULTS.md, "fifteenth look": after a move
-      with "seen", grasps in the easiest half of states succeeded 1-5 points less than direct ones).
+      fused maps, so a move can only add grasps (bench/RESULTS.md, "sixteenth look": worse on the
+      sixth run, 86.0-87.8 % against 88.0-88.7 % with "seen").
     train_ggcnn: the pipeline (train.py with no --stage) also trains GG-CNN when local_planner
       is "gdnet", which does not use it (for eval.py --policy ggcnn / ggcnn-close); with "ggcnn"
       it always does.  ``train.py --stage ggcnn --out RUN`` adds one to a run later.
