@@ -58,6 +58,15 @@ def test_metrics_hand_computed():
     assert "objects_lost_after_move" not in v  # outcomes that do not record it
     lam = M.summarize(_outcomes(viewpoints=[0, 1, 0], lost_after_move=[0, 1, 0]))
     assert lam["objects_lost"] == 1 and lam["objects_lost_after_move"] == 1
+    assert "success_after_move" not in lam and "first_attempt_success" not in lam  # not recorded
+    # Round 3 moved twice and grasped once after a move; a round without attempts has no first.
+    four = dict(n_objects=[2, 2, 3, 1], attempts=[2, 5, 4, 0], successes=[2, 1, 3, 0], motions=[2, 5, 6, 0],
+                travel=[1.0, 2.0, 1.5, 0.0], return_travel=[0.0, 1.2, 0.4, 0.0], remaining=[0, 0, 0, 1],
+                on_object=[2, 4, 4, 0], viewpoints=[0, 0, 2, 0], error=[False] * 4, overflow=[False] * 4,
+                successes_after_move=[0, 0, 1, 0], first_success=[True, False, True, False])
+    b = M.summarize(_outcomes(**four))
+    assert b["success_after_move"] == pytest.approx(1 / 2) and b["success_direct"] == pytest.approx(5 / 9)
+    assert b["first_attempt_success"] == pytest.approx(2 / 3)
 
 
 def test_metrics_pool_and_edge_cases():
@@ -226,8 +235,14 @@ def test_tiny_heuristic_evaluation_is_sane(tiny_eval):
         left = np.asarray(out["remaining"])
         assert ((att == 2 * k + 1) | (left == 0)).all()
         assert (np.asarray(out["lost_after_move"]) == 0).all()  # the heuristic never moves the camera
+        assert (np.asarray(out["successes_after_move"]) == 0).all()
+        first = np.asarray(out["first_success"])
+        assert (succ[first] >= 1).all()
+        if k == 1:  # one object: the first attempt succeeded exactly when it cleared the round at once
+            np.testing.assert_array_equal(first, (att == 1) & (succ == 1))
     overall = report["overall"]
     assert overall["attempts"] == sum(m["attempts"] for m in report["groups_metrics"])
+    assert overall["success_after_move"] is None and overall["success_direct"] == overall["grasp_success_rate"]
     print(M.format_table(report))
 
 

@@ -154,8 +154,10 @@ def test_ggcnn_close_policy_counts_a_viewpoint_per_attempt(cfg):
     assert (out.motions == 2 * out.attempts).all()
     assert (out.viewpoints == out.attempts).all()
     np.testing.assert_array_equal(np.asarray(out.lost_after_move), out.lost)  # every loss came after a move
+    np.testing.assert_array_equal(np.asarray(out.successes_after_move), out.successes)  # every grasp too
     m = M.summarize(out)
-    assert m["viewpoint_rate"] == 1.0
+    assert m["viewpoint_rate"] == 1.0 and m["success_direct"] is None
+    assert m["success_after_move"] == m["grasp_success_rate"]
 
 
 def test_ggcnn_policies_need_parameters(cfg):

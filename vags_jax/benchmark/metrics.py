@@ -10,8 +10,11 @@ Per group and ``overall`` (pooled over every round of every group), ``summarize`
 * picks per hour = successful grasps / hours of modelled robot time (``MotionTimeModel``);
 
 and diagnostics beside them: the share of attempts that moved the camera first
-(``viewpoint_rate``), attempts per round, the share aimed at an object cell
-(``on_object_rate``), objects lost (left the table without a grasp), physics errors.
+(``viewpoint_rate``), the success of those attempts and of the direct ones
+(``success_after_move``, ``success_direct``), the success of each round's first attempt
+(``first_attempt_success``: its pile has just been dropped), attempts per round, the share aimed
+at an object cell (``on_object_rate``), objects lost (left the table without a grasp), physics
+errors.
 """
 from __future__ import annotations
 
@@ -99,6 +102,9 @@ class RoundOutcomes:
     None for policies that never push.
     lost_after_move: the part of the objects lost (``lost``) knocked off by attempts made after
     a viewpoint move.
+    successes_after_move: the part of ``successes`` made by attempts after a viewpoint move.
+    first_success: bool, the round's first grasp attempt succeeded (False in a round without one).
+    The last three are None in outcomes recorded before they existed.
     """
 
     n_objects: Any
@@ -115,6 +121,8 @@ class RoundOutcomes:
     scores: Any = None
     pushes: Any = None
     lost_after_move: Any = None
+    successes_after_move: Any = None
+    first_success: Any = None
 
     @property
     def cleared(self) -> np.ndarray:
@@ -180,7 +188,21 @@ def summarize(out: RoundOutcomes, time_model: MotionTimeModel = MotionTimeModel(
         "buffer_overflows": int(np.sum(out.overflow)),
         **({} if out.pushes is None else {"pushes": int(np.sum(out.pushes))}),
         **({} if out.lost_after_move is None else {"objects_lost_after_move": int(np.sum(out.lost_after_move))}),
+        **_by_branch(out, attempts, successes),
     }
+
+
+def _by_branch(out: RoundOutcomes, attempts: int, successes: int) -> dict:
+    """``success_after_move`` / ``success_direct`` (attempts after a viewpoint move and the
+    rest) and ``first_attempt_success`` (rounds with at least one attempt), where recorded."""
+    m = {}
+    if out.successes_after_move is not None:
+        views, after = int(np.sum(out.viewpoints)), int(np.sum(out.successes_after_move))
+        m.update(success_after_move=_ratio(after, views), success_direct=_ratio(successes - after, attempts - views))
+    if out.first_success is not None:
+        started = np.asarray(out.attempts) > 0
+        m["first_attempt_success"] = _ratio(int(np.sum(np.asarray(out.first_success)[started])), int(started.sum()))
+    return m
 
 
 # ----------------------------------------------------------------------------- report
@@ -231,6 +253,17 @@ TABLE_LEGEND = (
     ("lost", "objects that left the table without being grasped (pushed or knocked off)"),
     ("errors", "rounds ended by a physics failure (NaN or an object through the table)"),
 )
+
+
+def format_branches(m: dict) -> Optional[str]:
+    """One line of ``summarize``'s success by branch (first attempts of the rounds, direct grasps,
+    grasps after a viewpoint move), or None for outcomes that do not record it."""
+    if "first_attempt_success" not in m:
+        return None
+    views = round((m["viewpoint_rate"] or 0.0) * m["attempts"])
+    return (f"success of the rounds' first attempts {_pct(m['first_attempt_success'])} %, of direct grasps "
+            f"{_pct(m.get('success_direct'))} %, of grasps after a move {_pct(m.get('success_after_move'))} % "
+            f"({views} of {m['attempts']} attempts)")
 
 
 def format_legend() -> str:

@@ -53,6 +53,8 @@ class _Carry:
     on_object: jax.Array  # (B,) int32
     viewpoints: jax.Array  # (B,) int32
     lost_after_move: jax.Array  # (B,) int32 objects knocked off by attempts after a viewpoint move
+    successes_after_move: jax.Array  # (B,) int32 successes of attempts after a viewpoint move
+    first_success: jax.Array  # (B,) bool the round's first grasp attempt succeeded
     pushes: jax.Array  # (B,) int32 (policies that push: VPG)
     scores: jax.Array  # (B, T) float32, NaN where no attempt was made
     key: jax.Array
@@ -159,6 +161,9 @@ class Evaluator:
             moved = (attempt.motions > 1) & ~keep
             views = c.viewpoints + moved.astype(jnp.int32)
             lost_after_move = c.lost_after_move + jnp.where(moved, env.knocked_off(c.env, s2, res.success), 0)
+            after_move = c.successes_after_move + (moved & res.success).astype(jnp.int32)
+            first = (c.env.attempts == 0) & ~keep & ~push  # the round's first grasp attempt
+            first_success = jnp.where(first, res.success, c.first_success)
             scores = c.scores
             if attempt.score is not None:
                 score = jnp.where(keep, jnp.nan, attempt.score.astype(jnp.float32))
@@ -167,12 +172,14 @@ class Evaluator:
             if pushes:
                 done = done | (s2.attempts + n_push >= env.max_attempts(s2.sim.n_objects, extra))
             return _Carry(env=s2, done=done, return_travel=ret, on_object=on_obj, viewpoints=views,
-                          lost_after_move=lost_after_move, pushes=n_push, scores=scores, key=key, t=c.t + 1, memory=memory)
+                          lost_after_move=lost_after_move, successes_after_move=after_move,
+                          first_success=first_success, pushes=n_push, scores=scores, key=key, t=c.t + 1,
+                          memory=memory)
 
         zi = jnp.zeros((B,), jnp.int32)
         c0 = _Carry(env=s0, done=env.round_over(s0, extra) | s0.sim.error,
                     return_travel=jnp.zeros((B,), jnp.float32), on_object=zi, viewpoints=zi, lost_after_move=zi,
-                    pushes=zi,
+                    successes_after_move=zi, first_success=jnp.zeros((B,), bool), pushes=zi,
                     scores=jnp.full((B, T), jnp.nan, jnp.float32), key=key, t=jnp.zeros((), jnp.int32),
                     memory=None if policy.init_memory is None else policy.init_memory(B))
         c = jax.lax.while_loop(cond, body, c0)
@@ -181,7 +188,8 @@ class Evaluator:
             n_objects=s.sim.n_objects, attempts=s.attempts, successes=s.successes, motions=s.motions,
             travel=s.travel, return_travel=c.return_travel, remaining=env.n_remaining(s), on_object=c.on_object,
             viewpoints=c.viewpoints, error=s.sim.error, overflow=s.sim.overflow, scores=c.scores,
-            pushes=c.pushes if pushes else None, lost_after_move=c.lost_after_move)
+            pushes=c.pushes if pushes else None, lost_after_move=c.lost_after_move,
+            successes_after_move=c.successes_after_move, first_success=c.first_success)
         return out
 
     def run_group(self, policy: Policy, key, n_objects: int, rounds: int) -> RoundOutcomes:
