@@ -4,5 +4,6 @@
 * ``metrics``: ``RoundOutcomes``, ``summarize``, ``MotionTimeModel``, the Markdown table.
 * ``reports``: CSV files and plots; ``sweep``: threshold sweeps.
 * ``record``, ``record_rounds``, ``images``: pictures of recorded VAGS rounds.
-* ``requests``: the checks ``eval.py`` makes before anything is compiled.
+* ``arguments``: ``eval.py``'s flags; ``requests``: the checks ``eval.py`` makes before anything
+  is compiled.
 """
