@@ -95,15 +95,29 @@ def colour_differences(a, b, edge: float = 2e-3) -> dict:
             "cells": int(differ.size)}
 
 
-def check_env() -> dict:
+def train_config(iterations: int = 2):
+    """The config ``train.py --devices 2`` builds from ``check_train``'s flags (``sets``)."""
+    return C.replace(C.tiny(), **{**TINY_TEST_OVERRIDES, "stage1.iterations": iterations, "parallel.devices": 2})
+
+
+def start_worlds(programs) -> object:
+    """2 fresh worlds (one per device) from the init of the data-parallel stage that
+    ``check_train`` trains with (``programs``): its reset program, compiled once for both checks
+    instead of a second unsharded reset -> an ``EnvState`` of 2 worlds."""
+    stage = programs.stage("stage1", train_config())
+    state = stage.init(jax.random.PRNGKey(3)).env  # (device, world, ...)
+    return jax.tree.map(lambda x: jnp.asarray(x).reshape((2,) + x.shape[2:]), state)
+
+
+def check_env(programs) -> dict:
     """One grasp step of 2 worlds (MJX impl "jax": physics, render, heightmaps, round
-    bookkeeping; no reset, no sensor noise) from the same start: unsharded, with one world on
-    each of 2 devices through the data-parallel stage's layout (a leading device axis,
-    ``data_parallel.stack`` / ``unstack`` under ``jax.shard_map``)."""
+    bookkeeping; no reset, no sensor noise) from the same start (``start_worlds``): unsharded,
+    with one world on each of 2 devices through the data-parallel stage's layout (a leading
+    device axis, ``data_parallel.stack`` / ``unstack`` under ``jax.shard_map``)."""
     cfg = C.replace(C.tiny(), **{**TINY_TEST_OVERRIDES, "camera.noise.enabled": False})
     env = VagsEnv(cfg)
     H, B = cfg.workspace.heightmap_px, 2
-    state = env.reset(jax.random.PRNGKey(3), np.array([2, 1]))
+    state = start_worlds(programs)
     flat = state.height.reshape(B, -1)
     top = jnp.argmax(flat, axis=1)  # each world's highest cell: a grasp on an object
     pixel = jnp.stack([top // H, top % H], 1).astype(jnp.int32)
@@ -135,14 +149,12 @@ def check_env() -> dict:
             "remaining": [np.asarray(env.n_remaining(x)).tolist() for x in (one_state, two_state)]}
 
 
-def check_train(out_dir: str) -> dict:
+def check_train(out_dir: str, programs) -> dict:
     """``train.py --stage gdnet --devices 2`` on the tiny test config: 2 iterations into
     OUT_DIR/dp, then ``--resume`` to 4 (the device count read from its config.json), and 4 in
     one go into OUT_DIR/dp_straight -> {name: {"code", "stderr"}}; the test reads the runs."""
     import train
-    from vags_jax.stages import driver
 
-    programs = driver.Programs()
     sets = lambda n: [f"{k}={v}" for k, v in {**TINY_TEST_OVERRIDES, "stage1.iterations": n}.items()]  # noqa: E731
     out, straight = os.path.join(out_dir, "dp"), os.path.join(out_dir, "dp_straight")
     runs = {"first": ["--config", "tiny", "--stage", "gdnet", "--devices", "2", "--chunk", "2", "--quiet",
@@ -162,4 +174,8 @@ def check_train(out_dir: str) -> dict:
 
 if __name__ == "__main__":
     assert jax.device_count() == 2, f"needs 2 devices (XLA_FLAGS), JAX sees {jax.device_count()}"
-    print(json.dumps({"update": check_update(), "env": check_env(), "train": check_train(sys.argv[1])}))
+    from vags_jax.stages import driver
+
+    shared = driver.Programs()  # check_env's start worlds come from the stage check_train trains
+    print(json.dumps({"update": check_update(), "env": check_env(shared), "train": check_train(sys.argv[1], shared),
+                      "stage_programs": sorted(k[0] for k in shared._built)}))

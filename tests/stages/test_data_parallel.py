@@ -70,7 +70,9 @@ def test_sharded_env_step_equals_the_unsharded_step_per_world(two_devices):
     grows their rounding differences (measured: 2.2e-4 in joint positions, 1.0 mm in heights;
     one world jitted alone, unsharded, differed from the sharded step by as much, 4.9e-4 and
     1.5 mm).  Resets are not compared: a device's worlds draw new scenes from its own key
-    stream, by design."""
+    stream, by design.  The start is the 2 worlds of the data-parallel stage that
+    ``test_train_py_devices_2_trains_checkpoints_and_resumes`` trains (one program for both)."""
+    assert two_devices["stage_programs"] == ["env", "stage1"], two_devices["stage_programs"]
     r = two_devices["env"]
     assert r["success_one"] == r["success_two"] and r["remaining"][0] == r["remaining"][1], r
     assert r["qpos_moved"] > 0.1, r  # the grasp lifted an object
