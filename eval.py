@@ -171,8 +171,9 @@ def _evaluate(args, plan, t_main: float, argv) -> int:
             extra["close_gdnet"] = networks.close_source
             log(f"decision threshold {report['threshold']:.4f}")
         print(M.format_table(report))
-        if M.format_branches(report["overall"]):
-            log(M.format_branches(report["overall"]))
+        branches = M.format_branches(report["overall"])
+        if branches:
+            log(branches)
         overall[report["seed"]] = report["overall"]
         path = out if args.seeds is None or not out else requests.seed_path(out, seed)
         if path:
