@@ -15,9 +15,14 @@ iteration's time goes, and the DQN update's model FLOP utilisation in bf16.
    iteration" is the whole iteration minus their sum (what fusion hides shows up negative).
    "host work per iteration" is a chunk's metrics copy to the host plus a checkpoint save,
    spread over the default chunk's iterations (train.py does this between chunks).
-3. Update MFU: XLA's FLOP count of one DQN update (``cost_analysis``) x updates/s, against the
-   peak of a large bf16 matrix multiply measured in this script on this device, for each trunk
-   of ``--trunks`` (DenseNet-121 at the config's heightmap size and rotations).
+3. Update MFU: the model FLOPs of one DQN update (``flop_count``; XLA's ``cost_analysis`` is
+   printed beside it, but on GPU it misses cuDNN's convolutions) x updates/s, against the peak
+   of a large bf16 matrix multiply measured in this script on this device, for each trunk of
+   ``--trunks`` (DenseNet-121 at the config's heightmap size and rotations); and the update's
+   parts: the target pass (its rotated inputs, trunks + head, maps back to the heightmap) and the
+   online network's forward + backward pass, each jitted alone.  The rotated inputs are timed
+   both ways: every rotation resampled, and a quarter of them turned (``rotated_inputs_all``,
+   what GDNet runs).
 Writes every figure to --out as JSON.  Timings mean something on a GPU only (bench/RESULTS.md).
 """
 from __future__ import annotations
@@ -34,10 +39,14 @@ import jax.numpy as jnp
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+
+from flop_count import forward_flops  # noqa: E402
 
 from vags_jax import compile_cache  # noqa: E402
 from vags_jax import config as C  # noqa: E402
-from vags_jax.nets import initial_variables, make_qnet  # noqa: E402
+from vags_jax.nets import (coarse_to_heightmap, initial_variables, make_qnet, pad_inputs, padded_size,  # noqa: E402
+                           rotated_inputs, rotated_inputs_all, rotation_angles, trunk_geometry)
 from vags_jax.rl import dqn, exploration, replay  # noqa: E402
 from vags_jax.stages import checkpoint, pipeline  # noqa: E402
 from vags_jax.stages.stage1 import Stage1  # noqa: E402
@@ -81,23 +90,65 @@ def random_batch(cfg, key, b: int):
     return batch, w
 
 
-def update_mfu(cfg, peak: float, n_updates: int) -> dict:
-    """One DQN update of GDNet (this config's trunk): FLOPs, updates/s and MFU against ``peak``."""
+def update_mfu(cfg, peak: float, n_updates: int, reps: int = 3) -> dict:
+    """One DQN update of GDNet (this config's trunk): model FLOPs, updates/s, MFU against ``peak``
+    and where the update's time goes (each part jitted alone on the same arrays).
+
+    Model FLOPs (``flop_count``): the target network's pass over every rotation of the next
+    states (twice with ``double_q``; none with gamma 0) plus 3 x the online network's forward
+    pass at the executed rotations (train mode).  XLA's own count is kept beside it
+    (``xla_flops``): on GPU it leaves out the convolutions cuDNN runs."""
     net = make_qnet(cfg.net, "gdnet")
     H = cfg.workspace.heightmap_px
     apply = lambda v, c, h, train, mutable=False, rotations=None: net.apply(  # noqa: E731
         v, c, h, train, rotations=rotations, mutable=mutable)
-    learner = dqn.create_train_state(initial_variables(jax.random.PRNGKey(0), net, cfg.net, H, H), cfg.dqn)
+    variables = initial_variables(jax.random.PRNGKey(0), net, cfg.net, H, H)
+    learner = dqn.create_train_state(variables, cfg.dqn)
     update = dqn.make_update_step(apply, cfg.dqn, executed_rotation_only=True)
     batch, w = random_batch(cfg, jax.random.PRNGKey(1), max(cfg.dqn.batch_size, 8))
     one = jax.jit(lambda ts: update(ts, batch, w)[0])
     many = jax.jit(lambda ts: jax.lax.scan(lambda s, _: (update(s, batch, w)[0], None), ts, None,
                                            length=n_updates)[0])
-    flops = flops_of(one, learner)
-    dt = timed(many, learner, reps=3) / n_updates
+    dt = timed(many, learner, reps=reps) / n_updates
+
+    rot = batch.action[:, :1]
+    if cfg.dqn.symmetric_grasp_label:
+        rot = jnp.concatenate([rot, (rot + cfg.net.n_rotations // 2) % cfg.net.n_rotations], 1)
+    next_h = batch.next_height.astype(jnp.float32)
+    target = lambda v: apply(v, batch.next_color, next_h, False)  # noqa: E731  (B, R, H, W)
+    online = lambda v: apply(v, batch.color, batch.height.astype(jnp.float32), True,  # noqa: E731
+                             mutable=["batch_stats"], rotations=rot)[0]
+    passes = 0 if cfg.dqn.gamma == 0 else (2 if cfg.dqn.double_q else 1)
+    f_target, f_online = forward_flops(target, variables), forward_flops(online, variables)
+    flops = passes * f_target + 3 * f_online
+
+    # The target pass in its three parts: rotated copies of the inputs, trunks + head, Q maps
+    # back in heightmap coordinates (vags_jax.nets.qnet, steps 1-5).
+    b, R = next_h.shape[0], cfg.net.n_rotations
+    geo = trunk_geometry(cfg.net.trunk, cfg.net.small_width)
+    p = padded_size(H, geo.stride)
+    theta = rotation_angles(jnp.broadcast_to(jnp.arange(R), (b, R)), R)
+    rotate_in = jax.jit(lambda c, h: rotated_inputs(pad_inputs(c, h, p), theta))  # every rotation resampled
+    rotate_quarter = jax.jit(lambda c, h: rotated_inputs_all(pad_inputs(c, h, p), R))  # what GDNet runs
+    x = rotate_in(batch.next_color, next_h)
+    trunks = jax.jit(lambda v, x: net.apply(v, x, False, method=net.coarse_q))
+    coarse = trunks(variables, x)
+    back = jax.jit(lambda c: coarse_to_heightmap(c, theta.reshape(-1), p, H, H, geo))
+    grad = jax.jit(jax.grad(lambda prm: jnp.sum(dqn.q_at_action(
+        online({"params": prm, "batch_stats": variables["batch_stats"]}), batch.action.at[:, 0].set(0)))))
+    parts = {
+        "target_pass_s": timed(jax.jit(target), variables, reps=reps),
+        "target_rotate_inputs_resampled_s": timed(rotate_in, batch.next_color, next_h, reps=reps),
+        "target_rotate_inputs_quarter_turns_s": timed(rotate_quarter, batch.next_color, next_h, reps=reps),
+        "target_trunks_and_head_s": timed(trunks, variables, x, reps=reps),
+        "target_to_heightmap_s": timed(back, coarse, reps=reps),
+        "online_forward_backward_s": timed(grad, variables["params"], reps=reps),
+    }
     return {"trunk": cfg.net.trunk, "dtype": cfg.net.dtype, "batch_size": cfg.dqn.batch_size,
-            "heightmap_px": H, "rotations": cfg.net.n_rotations, "update_flops": flops,
-            "update_s": dt, "updates_per_s": 1 / dt, "achieved_flops_per_s": flops / dt, "mfu": flops / dt / peak}
+            "heightmap_px": H, "rotations": R, "update_flops": flops, "target_pass_flops": f_target,
+            "online_forward_flops": f_online, "target_passes": passes, "xla_flops": flops_of(one, learner),
+            "update_s": dt, "updates_per_s": 1 / dt, "achieved_flops_per_s": flops / dt, "mfu": flops / dt / peak,
+            "parts": parts}
 
 
 def phases(st: Stage1, state, reps: int) -> dict:
@@ -198,9 +249,12 @@ def main(argv=None) -> int:
         tcfg = C.replace(cfg, **{"net.trunk": trunk, "net.dtype": "bfloat16"})
         r = update_mfu(tcfg, peak, s1.updates_per_iteration)
         mfu.append(r)
-        print(f"update MFU, {trunk}: {r['update_flops'] / 1e9:.2f} GFLOP per update, {r['updates_per_s']:.1f} "
-              f"updates/s, {r['achieved_flops_per_s'] / 1e12:.2f} TFLOP/s = {100 * r['mfu']:.1f} % of the peak",
-              flush=True)
+        print(f"update MFU, {trunk}: {r['update_flops'] / 1e9:.1f} GFLOP per update (model; XLA counts "
+              f"{r['xla_flops'] / 1e9:.1f}), {r['updates_per_s']:.1f} updates/s, "
+              f"{r['achieved_flops_per_s'] / 1e12:.2f} TFLOP/s = {100 * r['mfu']:.1f} % of the peak", flush=True)
+        for k, v in r["parts"].items():
+            print(f"    {k[:-2].replace('_', ' '):38s} {v * 1e3:8.2f} ms  {100 * v / r['update_s']:5.1f} % of an update",
+                  flush=True)
 
     result = {"device": jax.devices()[0].device_kind, "config": args.config, "overrides": args.set,
               "n_worlds": s1.n_worlds, "updates_per_iteration": s1.updates_per_iteration,
