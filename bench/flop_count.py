@@ -1,7 +1,8 @@
 """Model FLOPs of a JAX function, counted from its jaxpr (no compiling).
 
-Why: XLA's ``cost_analysis`` on GPU leaves out the convolutions it hands to cuDNN, so an MFU
-computed from it is far too low (bench/RESULTS.md, "The update's model FLOPs").  Here every
+Why: XLA's ``cost_analysis`` of a DQN update on an H100 gave 1-3 % of the FLOPs its
+convolutions do, so the MFU computed from it was far too low (bench/RESULTS.md, "The update's
+model FLOPs").  Here every
 ``conv_general_dilated`` and ``dot_general`` of the traced program counts
 ``2 * (output elements) * (multiply-adds per output element)``, whole kernel windows (XLA's own
 count on CPU leaves out the taps that fall on padding: 0.6 % fewer for the small trunk at

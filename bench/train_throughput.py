@@ -16,13 +16,11 @@ iteration's time goes, and the DQN update's model FLOP utilisation in bf16.
    "host work per iteration" is a chunk's metrics copy to the host plus a checkpoint save,
    spread over the default chunk's iterations (train.py does this between chunks).
 3. Update MFU: the model FLOPs of one DQN update (``flop_count``; XLA's ``cost_analysis`` is
-   printed beside it, but on GPU it misses cuDNN's convolutions) x updates/s, against the peak
+   printed beside it; on an H100 it counted 1-3 % of the model FLOPs) x updates/s, against the peak
    of a large bf16 matrix multiply measured in this script on this device, for each trunk of
    ``--trunks`` (DenseNet-121 at the config's heightmap size and rotations); and the update's
    parts: the target pass (its rotated inputs, trunks + head, maps back to the heightmap) and the
-   online network's forward + backward pass, each jitted alone.  The rotated inputs are timed
-   both ways: every rotation resampled, and a quarter of them turned (``rotated_inputs_all``,
-   what GDNet runs).
+   online network's forward + backward pass, each jitted alone.
 Writes every figure to --out as JSON.  Timings mean something on a GPU only (bench/RESULTS.md).
 """
 from __future__ import annotations
@@ -46,7 +44,7 @@ from flop_count import forward_flops  # noqa: E402
 from vags_jax import compile_cache  # noqa: E402
 from vags_jax import config as C  # noqa: E402
 from vags_jax.nets import (coarse_to_heightmap, initial_variables, make_qnet, pad_inputs, padded_size,  # noqa: E402
-                           rotated_inputs, rotated_inputs_all, rotation_angles, trunk_geometry)
+                           rotated_inputs, rotation_angles, trunk_geometry)
 from vags_jax.rl import dqn, exploration, replay  # noqa: E402
 from vags_jax.stages import checkpoint, pipeline  # noqa: E402
 from vags_jax.stages.stage1 import Stage1  # noqa: E402
@@ -97,7 +95,7 @@ def update_mfu(cfg, peak: float, n_updates: int, reps: int = 3) -> dict:
     Model FLOPs (``flop_count``): the target network's pass over every rotation of the next
     states (twice with ``double_q``; none with gamma 0) plus 3 x the online network's forward
     pass at the executed rotations (train mode).  XLA's own count is kept beside it
-    (``xla_flops``): on GPU it leaves out the convolutions cuDNN runs."""
+    (``xla_flops``): on an H100 it counted 1-3 % of the model FLOPs (bench/RESULTS.md)."""
     net = make_qnet(cfg.net, "gdnet")
     H = cfg.workspace.heightmap_px
     apply = lambda v, c, h, train, mutable=False, rotations=None: net.apply(  # noqa: E731
@@ -128,8 +126,7 @@ def update_mfu(cfg, peak: float, n_updates: int, reps: int = 3) -> dict:
     geo = trunk_geometry(cfg.net.trunk, cfg.net.small_width)
     p = padded_size(H, geo.stride)
     theta = rotation_angles(jnp.broadcast_to(jnp.arange(R), (b, R)), R)
-    rotate_in = jax.jit(lambda c, h: rotated_inputs(pad_inputs(c, h, p), theta))  # every rotation resampled
-    rotate_quarter = jax.jit(lambda c, h: rotated_inputs_all(pad_inputs(c, h, p), R))  # what GDNet runs
+    rotate_in = jax.jit(lambda c, h: rotated_inputs(pad_inputs(c, h, p), theta))
     x = rotate_in(batch.next_color, next_h)
     trunks = jax.jit(lambda v, x: net.apply(v, x, False, method=net.coarse_q))
     coarse = trunks(variables, x)
@@ -138,8 +135,7 @@ def update_mfu(cfg, peak: float, n_updates: int, reps: int = 3) -> dict:
         online({"params": prm, "batch_stats": variables["batch_stats"]}), batch.action.at[:, 0].set(0)))))
     parts = {
         "target_pass_s": timed(jax.jit(target), variables, reps=reps),
-        "target_rotate_inputs_resampled_s": timed(rotate_in, batch.next_color, next_h, reps=reps),
-        "target_rotate_inputs_quarter_turns_s": timed(rotate_quarter, batch.next_color, next_h, reps=reps),
+        "target_rotate_inputs_s": timed(rotate_in, batch.next_color, next_h, reps=reps),
         "target_trunks_and_head_s": timed(trunks, variables, x, reps=reps),
         "target_to_heightmap_s": timed(back, coarse, reps=reps),
         "online_forward_backward_s": timed(grad, variables["params"], reps=reps),

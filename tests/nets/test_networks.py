@@ -29,7 +29,6 @@ from vags_jax.nets import (
     padded_size,
     rotate,
     rotated_inputs,
-    rotated_inputs_all,
     rotation_angles,
     to_torchvision_state_dict,
     unrotate,
@@ -116,16 +115,6 @@ def _net_view(height_map, n_rot=16, stride=8):
     padded = pad_inputs(colour, jnp.asarray(height_map)[None], p)
     theta = rotation_angles(jnp.arange(n_rot)[None], n_rot)
     return np.asarray(rotated_inputs(padded, theta))[..., 3]
-
-
-def test_every_rotation_from_a_quarter_of_the_resamplings():
-    # rotated_inputs_all resamples R / 4 rotations and turns them by quarter turns; it must give
-    # rotated_inputs' copies for every index (and fall back to resampling all of them for R = 6).
-    x = jax.random.uniform(jax.random.PRNGKey(3), (2, 24, 24, 4))
-    for n_rot in (16, 8, 6):
-        theta = rotation_angles(jnp.broadcast_to(jnp.arange(n_rot), (2, n_rot)), n_rot)
-        np.testing.assert_allclose(np.asarray(rotated_inputs_all(x, n_rot)), np.asarray(rotated_inputs(x, theta)),
-                                   atol=1e-5)
 
 
 def test_rotation_index_puts_closing_axis_horizontal():

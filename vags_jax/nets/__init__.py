@@ -31,7 +31,6 @@ from .qnet import (
     pad_inputs,
     padded_size,
     rotated_inputs,
-    rotated_inputs_all,
     rotation_angles,
     trunk_geometry,
     variable_shapes,
@@ -42,7 +41,7 @@ from .small import SmallTrunk
 __all__ = [
     "DenseNet121", "SmallTrunk", "GGCNN", "GGCNNConfig", "GraspMaps", "init_ggcnn", "GDNet", "VANet", "QHead", "TrunkGeometry",
     "make_qnet", "nbv_net", "init_qnet", "init_variables", "variable_shapes", "make_trunk", "trunk_geometry", "padded_size", "rotation_angles",
-    "normalise_colour", "normalise_height", "pad_inputs", "rotated_inputs", "rotated_inputs_all", "coarse_to_heightmap",
+    "normalise_colour", "normalise_height", "pad_inputs", "rotated_inputs", "coarse_to_heightmap",
     "count_params", "rotate", "unrotate", "sample_bilinear", "source_coords",
     "densenet121_key_map", "load_densenet121", "read_state_dict", "to_torchvision_state_dict", "initial_variables",
     "check_init",

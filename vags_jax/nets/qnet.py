@@ -138,25 +138,6 @@ def rotated_inputs(padded: jax.Array, theta: jax.Array) -> jax.Array:
     return rotate(folded, -theta.reshape(-1))
 
 
-def rotated_inputs_all(padded: jax.Array, n_rotations: int) -> jax.Array:
-    """``rotated_inputs`` for every rotation ``r = 0 .. n_rotations - 1`` of every sample.
-
-    With ``n_rotations`` a multiple of 4 only the first quarter is resampled: turning the
-    content by a further -90 deg is an exact quarter turn of the square pixel grid about its
-    centre (``jnp.rot90``), so copy ``r + R / 4`` is copy ``r`` turned, with the same samples.
-    Args: padded ``(B, P, P, C)`` (square) from ``pad_inputs``.
-    Returns: ``(B * R, P, P, C)``, copy ``b * R + r`` as ``rotated_inputs``'s."""
-    b = padded.shape[0]
-    if n_rotations % 4 or padded.shape[1] != padded.shape[2]:
-        idx = jnp.broadcast_to(jnp.arange(n_rotations, dtype=jnp.int32), (b, n_rotations))
-        return rotated_inputs(padded, rotation_angles(idx, n_rotations))
-    q = n_rotations // 4
-    idx = jnp.broadcast_to(jnp.arange(q, dtype=jnp.int32), (b, q))
-    base = rotated_inputs(padded, rotation_angles(idx, n_rotations)).reshape((b, q) + padded.shape[1:])
-    turned = [jnp.rot90(base, k=t, axes=(2, 3)) for t in range(4)]  # rotation t * R / 4 + j
-    return jnp.concatenate(turned, axis=1).reshape((b * n_rotations,) + padded.shape[1:])
-
-
 def coarse_to_heightmap(coarse: jax.Array, theta: Optional[jax.Array], p: int, h: int, w: int,
                         geometry: TrunkGeometry) -> jax.Array:
     """Rotate back, bilinearly upsample and crop coarse Q maps in one interpolation.
@@ -276,11 +257,7 @@ class GDNet(_TwoStream):
         k = idx.shape[1]
         theta = rotation_angles(idx, self.n_rotations)  # (B, K)
         p = padded_size(max(h, w), self.geometry.stride, rotations=True)
-        padded = pad_inputs(colour, height, p)
-        if rotations is None:
-            x = rotated_inputs_all(padded, self.n_rotations)  # (B*R, P, P, 4)
-        else:
-            x = rotated_inputs(padded, theta)  # (B*K, P, P, 4)
+        x = rotated_inputs(pad_inputs(colour, height, p), theta)  # (B*K, P, P, 4)
         coarse = self.coarse_q(x, train)  # (B*K, P/s, P/s)
         q = coarse_to_heightmap(coarse, theta.reshape(-1), p, h, w, self.geometry)
         return q.reshape(b, k, h, w)
