@@ -17,7 +17,12 @@ variables, and each is checked against the module's output:
   so each layer is one kernel launch over 6 -> 2 x 32 -> ... channels;
 * ``grouped_s2d``: as ``grouped``, with the first 4x4 stride-2 convolution (3 input channels a
   stream) rewritten as a 2x2 stride-1 convolution over the 2 x 2 space-to-depth of its padded
-  input (12 channels a stream): the same sums, in fewer, wider taps.
+  input (12 channels a stream): the same sums, in fewer, wider taps;
+* ``streams`` and ``streams_s2d``: each stream's layers as plain ``lax`` convolutions, without and
+  with that first layer.
+
+Then one stream's layers 0..k alone (k = 0..3, with and without space-to-depth): where a pass
+goes, layer by layer.
 
 Model FLOPs as ``flop_count`` counts them; MFU against a bf16 matmul measured here.  Needs only
 jax and flax (no physics).  Timings mean something on a GPU only.
@@ -62,23 +67,43 @@ def _stacked(v, layer: str, norm: bool = False):
     return cat(p, "scale"), cat(p, "bias"), cat(s, "mean"), cat(s, "var")
 
 
-def _conv(x, kernel, stride: int, pad: int):
+def _conv(x, kernel, stride: int, pad: int, groups: int = 2):
     return jax.lax.conv_general_dilated(x, kernel.astype(x.dtype), (stride, stride), ((pad, pad), (pad, pad)),
-                                        dimension_numbers=("NHWC", "HWIO", "NHWC"), feature_group_count=2)
+                                        dimension_numbers=("NHWC", "HWIO", "NHWC"), feature_group_count=groups)
 
 
-def _space_to_depth_first_conv(x, kernel):
-    """4x4 / 2 pad 1 grouped conv of ``x (N, P, P, 2 c)`` as a 2x2 / 1 conv of the padded input's
+def _space_to_depth_first_conv(x, kernel, groups: int = 2):
+    """4x4 / 2 pad 1 conv of ``x (N, P, P, groups * c)`` as a 2x2 / 1 conv of the padded input's
     2 x 2 space-to-depth: tap ``(2a + r, 2b + s)`` of the kernel reads input block ``(a, b)`` at
     offset ``(r, s)``.  Channels stay grouped per stream: (group, r, s, c)."""
-    n, p, _, c2 = x.shape
-    c = c2 // 2
+    n, p, _, cg = x.shape
+    c = cg // groups
     xp = jnp.pad(x, ((0, 0), (1, 1), (1, 1), (0, 0)))
     m = (p + 2) // 2
-    xs = xp.reshape(n, m, 2, m, 2, 2, c).transpose(0, 1, 3, 5, 2, 4, 6).reshape(n, m, m, 2 * 4 * c)
-    cout2 = kernel.shape[-1]
-    k = kernel.reshape(2, 2, 2, 2, c, cout2).transpose(0, 2, 1, 3, 4, 5).reshape(2, 2, 4 * c, cout2)
-    return _conv(xs, k, 1, 0)
+    xs = xp.reshape(n, m, 2, m, 2, groups, c).transpose(0, 1, 3, 5, 2, 4, 6).reshape(n, m, m, groups * 4 * c)
+    cout = kernel.shape[-1]
+    k = kernel.reshape(2, 2, 2, 2, c, cout).transpose(0, 2, 1, 3, 4, 5).reshape(2, 2, 4 * c, cout)
+    return _conv(xs, k, 1, 0, groups)
+
+
+def _stream(v, trunk: str, x, s2d: bool, upto: int = 4):
+    """One trunk's layers ``0 .. upto - 1`` as plain convolutions (``s2d``: the first by
+    space-to-depth)."""
+    p, st = v["params"][trunk], v["batch_stats"][trunk]
+    for i in range(min(upto, 3)):
+        k = p[f"conv{i}"]["kernel"]
+        x = _space_to_depth_first_conv(x, k, 1) if (s2d and i == 0) else _conv(x, k, 2, 1, 1)
+        x = _bn_relu(x, p[f"norm{i}"]["scale"], p[f"norm{i}"]["bias"], st[f"norm{i}"]["mean"], st[f"norm{i}"]["var"])
+    return _conv(x, p["conv3"]["kernel"], 1, 1, 1) if upto > 3 else x
+
+
+def streams_coarse_q(net, v, raw, s2d: bool = False):
+    """``coarse_q`` with each stream's layers as plain convolutions (``s2d``: first layer by
+    space-to-depth)."""
+    dt = jnp.dtype(net.dtype)
+    feats = jnp.concatenate([_stream(v, "colour_trunk", normalise_colour(raw[..., :3]).astype(dt), s2d),
+                             _stream(v, "depth_trunk", normalise_height(raw[..., 3]).astype(dt), s2d)], -1)
+    return net.apply(v, feats, False, method=lambda m, f, t: m.head(f, t))
 
 
 def grouped_coarse_q(net, v, raw, s2d: bool = False):
@@ -125,7 +150,9 @@ def main(argv=None) -> int:
           f"inputs {side} x {side}; bf16 matmul peak {peak / 1e12:.1f} TFLOP/s", flush=True)
     forms = {"modules": lambda v, x: net.apply(v, x, False, method=net.coarse_q),
              "grouped": lambda v, x: grouped_coarse_q(net, v, x),
-             "grouped_s2d": lambda v, x: grouped_coarse_q(net, v, x, s2d=True)}
+             "grouped_s2d": lambda v, x: grouped_coarse_q(net, v, x, s2d=True),
+             "streams": lambda v, x: streams_coarse_q(net, v, x),
+             "streams_s2d": lambda v, x: streams_coarse_q(net, v, x, s2d=True)}
     rows = []
     for n in [int(b) for b in args.batches.split(",") if b]:
         k = jax.random.split(jax.random.PRNGKey(n), 2)
@@ -145,11 +172,21 @@ def main(argv=None) -> int:
             print(f"  {name:12s} {n:5d} images: {dt * 1e3:8.2f} ms, {row['ms_per_1024_images']:7.2f} ms per 1024, "
                   f"{flops / dt / 1e12:6.1f} TFLOP/s = {100 * row['mfu']:4.1f} % MFU; "
                   f"max |diff| / max |Q| to modules {err:.1e}", flush=True)
+    n = int(args.batches.split(",")[0])
+    x = normalise_colour(jax.random.uniform(jax.random.PRNGKey(5), (n, side, side, 3), maxval=255.0)).astype(
+        jnp.dtype(net.dtype))
+    layers = []
+    for upto in range(1, 5):  # one stream, layers 0 .. upto - 1: each layer's time is the increment
+        for s2d in (False, True):
+            dt, _ = timed(jax.jit(lambda v, x: _stream(v, "colour_trunk", x, s2d, upto)), v, x, repeats=args.reps)
+            layers.append({"layers": upto, "s2d": s2d, "images": n, "s": dt})
+            print(f"  one stream, layers 0-{upto - 1}{' (first by space-to-depth)' if s2d else ''}: "
+                  f"{dt * 1e3:.2f} ms for {n} images", flush=True)
     if args.out:
         os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
         with open(args.out, "w") as f:
             json.dump({"device": jax.devices()[0].device_kind, "net": net_cfg.__dict__ | {}, "heightmap_px": px,
-                       "padded": side, "matmul_peak_flops_per_s": peak, "rows": rows,
+                       "padded": side, "matmul_peak_flops_per_s": peak, "rows": rows, "one_stream_layers": layers,
                        "date": time.strftime("%Y-%m-%d")}, f, indent=2, default=str)
         print(f"wrote {args.out}")
     return 0

@@ -117,6 +117,22 @@ def _net_view(height_map, n_rot=16, stride=8):
     return np.asarray(rotated_inputs(padded, theta))[..., 3]
 
 
+def test_the_space_to_depth_conv_is_the_strided_conv():
+    # SmallTrunk's first layer: same parameter and result as a 4x4 / 2 conv with padding 1.
+    from vags_jax.nets.densenet import conv
+    from vags_jax.nets.small import SpaceToDepthConv
+    x = jax.random.normal(jax.random.PRNGKey(4), (2, 12, 16, 3))
+    s2d = SpaceToDepthConv(5)
+    v = s2d.init(jax.random.PRNGKey(5), x)
+    assert v["params"]["kernel"].shape == (4, 4, 3, 5)
+    want = conv(5, 4, "c", jnp.float32, stride=2, pad=1).apply(v, x)
+    got = s2d.apply(v, x)
+    assert got.shape == (2, 6, 8, 5)
+    np.testing.assert_allclose(np.asarray(got), np.asarray(want), rtol=1e-5, atol=1e-5)
+    with pytest.raises(ValueError, match="even height and width"):
+        s2d.apply(v, x[:, :11])
+
+
 def test_rotation_index_puts_closing_axis_horizontal():
     # Hand-computed: index 4 is theta = 90 deg, closing axis along +y (rows).  The network's
     # input is the map turned by -90 deg, so a marker 5 rows below the centre (+y, on the
