@@ -19,7 +19,8 @@ variables, and each is checked against the module's output:
   stream) rewritten as a 2x2 stride-1 convolution over the 2 x 2 space-to-depth of its padded
   input (12 channels a stream): the same sums, in fewer, wider taps;
 * ``streams`` and ``streams_s2d``: each stream's layers as plain ``lax`` convolutions, without and
-  with that first layer.
+  with that first layer; ``streams_s2d_folded``: with eval-mode BatchNorm folded into each
+  kernel and a bias (conv + bias + ReLU a layer).
 
 Then one stream's layers 0..k alone (k = 0..3, with and without space-to-depth): where a pass
 goes, layer by layer.
@@ -86,23 +87,28 @@ def _space_to_depth_first_conv(x, kernel, groups: int = 2):
     return _conv(xs, k, 1, 0, groups)
 
 
-def _stream(v, trunk: str, x, s2d: bool, upto: int = 4):
+def _stream(v, trunk: str, x, s2d: bool, upto: int = 4, fold: bool = False):
     """One trunk's layers ``0 .. upto - 1`` as plain convolutions (``s2d``: the first by
-    space-to-depth)."""
+    space-to-depth; ``fold``: eval-mode BatchNorm folded into the kernel and a bias, so that
+    each layer is conv + bias + ReLU)."""
     p, st = v["params"][trunk], v["batch_stats"][trunk]
     for i in range(min(upto, 3)):
         k = p[f"conv{i}"]["kernel"]
+        scale, bias, mean, var = (p[f"norm{i}"]["scale"], p[f"norm{i}"]["bias"], st[f"norm{i}"]["mean"],
+                                  st[f"norm{i}"]["var"])
+        mul = scale * jax.lax.rsqrt(var + EPS)
+        k = k * mul if fold else k
         x = _space_to_depth_first_conv(x, k, 1) if (s2d and i == 0) else _conv(x, k, 2, 1, 1)
-        x = _bn_relu(x, p[f"norm{i}"]["scale"], p[f"norm{i}"]["bias"], st[f"norm{i}"]["mean"], st[f"norm{i}"]["var"])
+        x = jax.nn.relu(x + (bias - mean * mul).astype(x.dtype)) if fold else _bn_relu(x, scale, bias, mean, var)
     return _conv(x, p["conv3"]["kernel"], 1, 1, 1) if upto > 3 else x
 
 
-def streams_coarse_q(net, v, raw, s2d: bool = False):
+def streams_coarse_q(net, v, raw, s2d: bool = False, fold: bool = False):
     """``coarse_q`` with each stream's layers as plain convolutions (``s2d``: first layer by
-    space-to-depth)."""
+    space-to-depth; ``fold``: BatchNorm folded, ``_stream``)."""
     dt = jnp.dtype(net.dtype)
-    feats = jnp.concatenate([_stream(v, "colour_trunk", normalise_colour(raw[..., :3]).astype(dt), s2d),
-                             _stream(v, "depth_trunk", normalise_height(raw[..., 3]).astype(dt), s2d)], -1)
+    feats = jnp.concatenate([_stream(v, "colour_trunk", normalise_colour(raw[..., :3]).astype(dt), s2d, fold=fold),
+                             _stream(v, "depth_trunk", normalise_height(raw[..., 3]).astype(dt), s2d, fold=fold)], -1)
     return net.apply(v, feats, False, method=lambda m, f, t: m.head(f, t))
 
 
@@ -152,7 +158,8 @@ def main(argv=None) -> int:
              "grouped": lambda v, x: grouped_coarse_q(net, v, x),
              "grouped_s2d": lambda v, x: grouped_coarse_q(net, v, x, s2d=True),
              "streams": lambda v, x: streams_coarse_q(net, v, x),
-             "streams_s2d": lambda v, x: streams_coarse_q(net, v, x, s2d=True)}
+             "streams_s2d": lambda v, x: streams_coarse_q(net, v, x, s2d=True),
+             "streams_s2d_folded": lambda v, x: streams_coarse_q(net, v, x, s2d=True, fold=True)}
     rows = []
     for n in [int(b) for b in args.batches.split(",") if b]:
         k = jax.random.split(jax.random.PRNGKey(n), 2)
@@ -177,11 +184,12 @@ def main(argv=None) -> int:
         jnp.dtype(net.dtype))
     layers = []
     for upto in range(1, 5):  # one stream, layers 0 .. upto - 1: each layer's time is the increment
-        for s2d in (False, True):
-            dt, _ = timed(jax.jit(lambda v, x: _stream(v, "colour_trunk", x, s2d, upto)), v, x, repeats=args.reps)
-            layers.append({"layers": upto, "s2d": s2d, "images": n, "s": dt})
-            print(f"  one stream, layers 0-{upto - 1}{' (first by space-to-depth)' if s2d else ''}: "
-                  f"{dt * 1e3:.2f} ms for {n} images", flush=True)
+        for s2d, fold in ((False, False), (True, False), (True, True)):
+            dt, _ = timed(jax.jit(lambda v, x: _stream(v, "colour_trunk", x, s2d, upto, fold)), v, x,
+                          repeats=args.reps)
+            layers.append({"layers": upto, "s2d": s2d, "fold": fold, "images": n, "s": dt})
+            print(f"  one stream, layers 0-{upto - 1}{' (first by space-to-depth)' if s2d else ''}"
+                  f"{' (BatchNorm folded)' if fold else ''}: {dt * 1e3:.2f} ms for {n} images", flush=True)
     if args.out:
         os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
         with open(args.out, "w") as f:

@@ -11,6 +11,7 @@ import sys
 
 os.environ.setdefault("JAX_PLATFORMS", "cpu")
 
+import flax.linen as nn
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -117,20 +118,39 @@ def _net_view(height_map, n_rot=16, stride=8):
     return np.asarray(rotated_inputs(padded, theta))[..., 3]
 
 
-def test_the_space_to_depth_conv_is_the_strided_conv():
-    # SmallTrunk's first layer: same parameter and result as a 4x4 / 2 conv with padding 1.
+def test_the_small_trunks_rewrites_keep_its_arithmetic():
+    # StridedConv, both ways, is the 4x4 / 2 conv with padding 1 (same parameter, same result).
     from vags_jax.nets.densenet import conv
-    from vags_jax.nets.small import SpaceToDepthConv
+    from vags_jax.nets.small import StridedConv
     x = jax.random.normal(jax.random.PRNGKey(4), (2, 12, 16, 3))
-    s2d = SpaceToDepthConv(5)
-    v = s2d.init(jax.random.PRNGKey(5), x)
-    assert v["params"]["kernel"].shape == (4, 4, 3, 5)
-    want = conv(5, 4, "c", jnp.float32, stride=2, pad=1).apply(v, x)
-    got = s2d.apply(v, x)
-    assert got.shape == (2, 6, 8, 5)
-    np.testing.assert_allclose(np.asarray(got), np.asarray(want), rtol=1e-5, atol=1e-5)
+    for s2d in (False, True):
+        sc = StridedConv(5, space_to_depth=s2d)
+        v = sc.init(jax.random.PRNGKey(5), x)
+        assert v["params"]["kernel"].shape == (4, 4, 3, 5)
+        got = sc.apply(v, x)
+        assert got.shape == (2, 6, 8, 5)
+        np.testing.assert_allclose(np.asarray(got), np.asarray(conv(5, 4, "c", jnp.float32, stride=2, pad=1).apply(v, x)),
+                                   rtol=1e-5, atol=1e-5)
     with pytest.raises(ValueError, match="even height and width"):
-        s2d.apply(v, x[:, :11])
+        sc.apply(v, x[:, :11])
+    # In eval mode the trunk folds each BatchNorm into its conv; the result is the unfolded one's.
+    trunk = small_mod.SmallTrunk(width=4)
+    xi = jax.random.normal(jax.random.PRNGKey(6), (2, 16, 16, 3))
+    tv = trunk.init(jax.random.PRNGKey(7), xi)
+    tv = {"params": tv["params"], "batch_stats": jax.tree.map(
+        lambda a: a + jax.random.uniform(jax.random.PRNGKey(8), a.shape, minval=0.1, maxval=0.5), tv["batch_stats"])}
+
+    class Unfolded(small_mod.SmallTrunk):  # the layers spelled out, BatchNorm applied as a module
+        @nn.compact
+        def __call__(self, x, train=False):
+            for i, mult in enumerate((1, 2, 4)):
+                x = conv(mult * self.width, 4, f"conv{i}", jnp.float32, stride=2, pad=1)(x)
+                x = nn.relu(nn.BatchNorm(use_running_average=True, epsilon=1e-5, name=f"norm{i}")(x))
+            return conv(4 * self.width, 3, "conv3", jnp.float32, pad=1)(x)
+
+    want = Unfolded(width=4).apply(tv, xi)
+    np.testing.assert_allclose(np.asarray(trunk.apply(tv, xi)), np.asarray(want), rtol=1e-5, atol=1e-5)
+    assert float(jnp.abs(want).max()) > 0.1
 
 
 def test_rotation_index_puts_closing_axis_horizontal():

@@ -37,6 +37,7 @@ BN_SIZE = 4
 INIT_FEATURES = 64
 # torch's kaiming_normal_ (fan_in, ReLU gain): an untruncated normal, std sqrt(2 / fan_in).
 HE_NORMAL = nn.initializers.variance_scaling(2.0, "fan_in", "normal")
+BN_EPSILON = 1e-5  # torch's BatchNorm2d default
 
 
 def batch_norm(name: str, train: bool, dtype, axis_name: Optional[str] = None) -> nn.BatchNorm:
@@ -44,7 +45,7 @@ def batch_norm(name: str, train: bool, dtype, axis_name: Optional[str] = None) -
     ``axis_name``: in train mode the batch statistics are averaged over that mapped axis (data
     parallel training: the statistics of the whole batch, split over devices)."""
     return nn.BatchNorm(
-        use_running_average=not train, momentum=0.9, epsilon=1e-5,
+        use_running_average=not train, momentum=0.9, epsilon=BN_EPSILON,
         dtype=dtype, param_dtype=jnp.float32, axis_name=axis_name, name=name,
     )
 

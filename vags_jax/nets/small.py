@@ -1,9 +1,10 @@
 """A small fast trunk: three strided 4x4 convs and one 3x3 conv (stride 8).
 
-The first conv runs as a 2x2 / 1 conv over the 2 x 2 space-to-depth of its padded input
-(``SpaceToDepthConv``): the same parameters and sums, but a conv over 3 input channels is
-memory-bound, and this form made the two trunks' pass 1.19 x faster on an H100
-(bench/RESULTS.md, "Where the update's time goes").
+Two rewrites of the same arithmetic make the two trunks' eval-mode pass (the actor's and the
+target network's) 1.45 x faster on an H100 (bench/RESULTS.md, "Where the update's time goes"):
+the first conv, over 3 input channels and memory-bound, runs as a 2x2 / 1 conv over the 2 x 2
+space-to-depth of its padded input (``StridedConv``); in eval mode each BatchNorm is folded into
+its conv's kernel and a bias (``folded_batch_norm``).  Parameters and train mode are unchanged.
 
 ::
 
@@ -25,7 +26,7 @@ import flax.linen as nn
 import jax
 import jax.numpy as jnp
 
-from .densenet import HE_NORMAL, batch_norm, conv
+from .densenet import BN_EPSILON, HE_NORMAL, batch_norm, conv
 
 STRIDE = 8
 OFFSET = 3.5
@@ -42,27 +43,44 @@ def param_count(width: int, in_channels: int = 3) -> int:
     return convs + 2 * (w + 2 * w + 4 * w)
 
 
-class SpaceToDepthConv(nn.Module):
+class StridedConv(nn.Module):
     """``nn.Conv(features, (4, 4), strides 2, padding 1, no bias)``: its parameter (``kernel``
-    ``(4, 4, C, features)``) and its result, computed as a 2x2 / 1 conv over the padded input's
-    2 x 2 space-to-depth.  Kernel tap ``(2a + r, 2b + s)`` reads block ``(a, b)`` at offset
-    ``(r, s)``.  ``(N, H, W, C) -> (N, H / 2, W / 2, features)`` for even H, W."""
+    ``(4, 4, C, features)``) and its result.  ``space_to_depth``: computed as a 2x2 / 1 conv over
+    the padded input's 2 x 2 space-to-depth (kernel tap ``(2a + r, 2b + s)`` reads block
+    ``(a, b)`` at offset ``(r, s)``).  ``scale`` ``(features,)`` multiplies the kernel's output
+    channels (an eval-mode BatchNorm folded in).  ``(N, H, W, C) -> (N, H / 2, W / 2, features)``
+    for even H, W."""
 
     features: int
     dtype: jnp.dtype = jnp.float32
+    space_to_depth: bool = False
 
     @nn.compact
-    def __call__(self, x: jax.Array) -> jax.Array:
+    def __call__(self, x: jax.Array, scale: Optional[jax.Array] = None) -> jax.Array:
         n, h, w, c = x.shape
         if h % 2 or w % 2:
-            raise ValueError(f"SpaceToDepthConv needs an even height and width, got {h} x {w}")
+            raise ValueError(f"StridedConv needs an even height and width, got {h} x {w}")
         kernel = self.param("kernel", HE_NORMAL, (4, 4, c, self.features), jnp.float32)
-        xp = jnp.pad(x.astype(self.dtype), ((0, 0), (1, 1), (1, 1), (0, 0)))
+        if scale is not None:
+            kernel = kernel * scale
+        x = x.astype(self.dtype)
+        if not self.space_to_depth:
+            return jax.lax.conv_general_dilated(x, kernel.astype(self.dtype), (2, 2), ((1, 1), (1, 1)),
+                                                dimension_numbers=("NHWC", "HWIO", "NHWC"))
+        xp = jnp.pad(x, ((0, 0), (1, 1), (1, 1), (0, 0)))
         m_h, m_w = (h + 2) // 2, (w + 2) // 2
         blocks = xp.reshape(n, m_h, 2, m_w, 2, c).transpose(0, 1, 3, 2, 4, 5).reshape(n, m_h, m_w, 4 * c)
         k = kernel.reshape(2, 2, 2, 2, c, self.features).transpose(0, 2, 1, 3, 4, 5).reshape(2, 2, 4 * c, self.features)
         return jax.lax.conv_general_dilated(blocks, k.astype(self.dtype), (1, 1), "VALID",
                                             dimension_numbers=("NHWC", "HWIO", "NHWC"))
+
+
+def folded_batch_norm(variables: dict) -> tuple[jax.Array, jax.Array]:
+    """An eval-mode BatchNorm's variables -> ``(mul, shift)``, each ``(C,)`` float32, with
+    ``bn(y) = y * mul + shift``."""
+    p, s = variables["params"], variables["batch_stats"]
+    mul = p["scale"] * jax.lax.rsqrt(s["var"] + BN_EPSILON)
+    return mul, p["bias"] - s["mean"] * mul
 
 
 class SmallTrunk(nn.Module):
@@ -76,9 +94,11 @@ class SmallTrunk(nn.Module):
     def __call__(self, x: jax.Array, train: bool = False) -> jax.Array:
         x = x.astype(self.dtype)
         for i, mult in enumerate((1, 2, 4)):
-            if i == 0:
-                x = SpaceToDepthConv(self.width, self.dtype, name="conv0")(x)
-            else:
-                x = conv(mult * self.width, 4, f"conv{i}", self.dtype, stride=2, pad=1)(x)
-            x = nn.relu(batch_norm(f"norm{i}", train, self.dtype, self.axis_name)(x))
+            c = StridedConv(mult * self.width, self.dtype, space_to_depth=(i == 0), name=f"conv{i}")
+            bn = batch_norm(f"norm{i}", train, self.dtype, self.axis_name)
+            if train or self.is_initializing():
+                x = nn.relu(bn(c(x)))
+            else:  # BatchNorm folded into the conv: conv + bias + ReLU, one pass less over the activations
+                mul, shift = folded_batch_norm(bn.variables)
+                x = nn.relu(c(x, mul) + shift.astype(self.dtype))
         return conv(4 * self.width, 3, "conv3", self.dtype, pad=1)(x)
