@@ -6,6 +6,7 @@ import json
 import time
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 
 
@@ -22,6 +23,14 @@ def timed(fn, *args, repeats: int = 3):
         out = jax.block_until_ready(fn(*args))
         ts.append(time.perf_counter() - t)
     return float(np.median(ts)), out
+
+
+def matmul_peak(n: int) -> float:
+    """FLOP/s of an (n, n) x (n, n) bf16 matrix multiply with float32 accumulation: the peak an
+    MFU is taken against (median of 20 calls)."""
+    a = jax.random.normal(jax.random.PRNGKey(0), (n, n), jnp.bfloat16)
+    f = jax.jit(lambda x, y: jnp.matmul(x, y, preferred_element_type=jnp.float32))
+    return 2 * n ** 3 / timed(f, a, a, repeats=20)[0]
 
 
 def parse_variant(spec: str) -> tuple[str, list[str]]:

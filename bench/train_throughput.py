@@ -40,6 +40,7 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 from flop_count import forward_flops  # noqa: E402
+from timing import matmul_peak  # noqa: E402
 
 from vags_jax import compile_cache  # noqa: E402
 from vags_jax import config as C  # noqa: E402
@@ -58,14 +59,6 @@ def timed(fn, *args, reps: int = 5) -> float:
         out = fn(*args)
     jax.block_until_ready(out)
     return (time.perf_counter() - t) / reps
-
-
-def matmul_peak(n: int) -> float:
-    """FLOP/s of an (n, n) x (n, n) bf16 matrix multiply (f32 accumulation)."""
-    a = jax.random.normal(jax.random.PRNGKey(0), (n, n), jnp.bfloat16)
-    b = jax.random.normal(jax.random.PRNGKey(1), (n, n), jnp.bfloat16)
-    f = jax.jit(lambda x, y: jnp.matmul(x, y, preferred_element_type=jnp.float32))
-    return 2 * n ** 3 / timed(f, a, b, reps=20)
 
 
 def flops_of(jitted, *args) -> float:

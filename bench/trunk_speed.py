@@ -44,7 +44,7 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 from flop_count import forward_flops  # noqa: E402
-from timing import timed  # noqa: E402
+from timing import matmul_peak, timed  # noqa: E402
 
 from vags_jax import config as C  # noqa: E402
 from vags_jax.nets import init_qnet, make_qnet, normalise_colour, normalise_height, padded_size  # noqa: E402
@@ -122,12 +122,6 @@ def grouped_coarse_q(net, v, raw, s2d: bool = False):
         x = _bn_relu(x, *_stacked(v, f"norm{i}", norm=True))
     feats = _conv(x, _stacked(v, "conv3"), 1, 1)  # (N, P/8, P/8, 8 w) = [colour, depth] features
     return net.apply(v, feats, False, method=lambda m, f, t: m.head(f, t))
-
-
-def matmul_peak(n: int) -> float:
-    a = jax.random.normal(jax.random.PRNGKey(0), (n, n), jnp.bfloat16)
-    f = jax.jit(lambda x, y: jnp.matmul(x, y, preferred_element_type=jnp.float32))
-    return 2 * n ** 3 / timed(f, a, a, repeats=20)[0]
 
 
 def main(argv=None) -> int:
