@@ -52,6 +52,21 @@ def test_table1_json_and_csv_from_hand_made_reports(tmp_path):
     CMP.check_same_scenes({**reports, "c": _report("c", 1, 1, 1, 4, scenes="xyz")}, digests=False)
     with pytest.raises(ValueError, match="played rounds 5"):
         CMP.check_same_scenes({**reports, "c": _report("c", 1, 1, 1, 5)})
+    # The scene digest hashes the draws only; the recorded configs' scene settings are compared
+    # too (the "edge" variant moves the camera and the drop margin, with the same draws).
+    cfg = {"scene": {"drop_margin": 0.1}, "workspace": {"heightmap_px": 224},
+           "camera": {"global_position": [0.0, -0.42, 0.62], "renderer": "jax"}}
+    edge = json.loads(json.dumps(cfg))
+    edge["camera"]["global_position"] = [0.0, -0.34, 0.502]
+    same = {"a": dict(reports["a"], config=cfg), "b": dict(reports["b"], config=dict(cfg, camera=dict(
+        cfg["camera"], renderer="warp")))}
+    CMP.check_same_scenes(same)  # the renderer is not a scene setting
+    CMP.check_same_scenes({**same, "c": _report("c", 1, 1, 1, 4)})  # no config recorded: not compared
+    with pytest.raises(ValueError, match=r"camera.global_position: \[0.0, -0.34, 0.502\]"):
+        CMP.check_same_scenes({**same, "c": dict(_report("c", 1, 1, 1, 4), config=edge)}, digests=False)
+    edge["scene"]["drop_margin"] = 0.06
+    with pytest.raises(ValueError, match=r"\(scene.drop_margin: 0.06 and 0.1\)"):
+        CMP.check_same_scenes({**same, "c": dict(_report("c", 1, 1, 1, 4), config=edge)}, digests=False)
 
 
 def test_compare_plays_every_method_on_the_same_scenes(tmp_path, capsys):

@@ -81,9 +81,34 @@ def comparison_rows(reports: dict) -> list[dict]:
     return rows
 
 
+# What makes two reports' scenes the same besides the draws the digest hashes: the layout and
+# settling (``scene``), the workspace, and what the global camera sees (pose, optics, sensor).
+SCENE_SETTINGS = ("scene", "workspace", "camera.width", "camera.height", "camera.fx", "camera.fy", "camera.cx",
+                  "camera.cy", "camera.global_position", "camera.global_target", "camera.noise")
+
+
+def _setting(report: dict, path: str):
+    value = report.get("config")
+    for part in path.split("."):
+        if not isinstance(value, dict) or part not in value:
+            return None
+        value = value[part]
+    return value
+
+
+def _first_difference(path: str, a, b):
+    """(dotted path, a's value, b's value) of the first leaf where ``a`` and ``b`` differ."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        for k in sorted(set(a) | set(b)):
+            if a.get(k) != b.get(k):
+                return _first_difference(f"{path}.{k}", a.get(k), b.get(k))
+    return path, a, b
+
+
 def check_same_scenes(reports: dict, digests: bool = True) -> None:
-    """ValueError unless every report played the same seed, groups, rounds and (where recorded,
-    and unless ``digests`` is False) the same scenes."""
+    """ValueError unless every report played the same seed, groups, rounds, scene settings
+    (``SCENE_SETTINGS`` of the recorded configs, where both have them) and (where recorded, and
+    unless ``digests`` is False) the same scene draws."""
     if not reports:
         return
     first_label, first = next(iter(reports.items()))
@@ -92,6 +117,12 @@ def check_same_scenes(reports: dict, digests: bool = True) -> None:
             if rep.get(key) != first.get(key):
                 raise ValueError(f"--compare: {label} played {key} {rep.get(key)}, {first_label} {first.get(key)}: "
                                  f"a table needs every method on the same scenes (same --seed, --groups, --rounds)")
+        for path in SCENE_SETTINGS:
+            a, b = _setting(rep, path), _setting(first, path)
+            if a is not None and b is not None and a != b:
+                where, va, vb = _first_difference(path, a, b)
+                raise ValueError(f"--compare: {label} and {first_label} played scenes of different settings "
+                                 f"({where}: {va} and {vb}): put reports of one scene variant (--scenes) in a table")
         a, b = rep.get("scenes"), first.get("scenes")
         if digests and a is not None and b is not None and a != b:
             raise ValueError(f"--compare: {label} played other scenes than {first_label} (scene digests {a} and "
