@@ -459,9 +459,10 @@ def test_the_gate_measure_can_follow_the_moves(runs, programs):
     from vags_jax.stages import gate_measure
 
     differ = False
-    # Until a pile's branches disagree (the tiny run's two piles often agree), from seed 3: the
-    # first that disagrees on the project's 2-core CPU machine (seeds 0-2 took 3 s each there).
-    for seed in range(3, 11):
+    # Until a pile's branches disagree (the tiny run's barely trained GDNet mostly misses in both),
+    # from seed 11: the first that disagrees on the project's 2-core CPU machine (seeds 0-10 took
+    # 3 s each there).  Rounding changes in the networks move that seed, hence the long range.
+    for seed in range(11, 40):
         rows = {f: gate_measure.measure(runs[0], seed=seed, log=lambda m: None, programs=programs, follow=f)[2]
                 for f in gate_measure.FOLLOW}
         first = [{k: v[r["attempt"] == 0] for k, v in r.items()} for r in rows.values()]
