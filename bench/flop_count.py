@@ -1,14 +1,14 @@
 """Model FLOPs of a JAX function, counted from its jaxpr (no compiling).
 
 Why: XLA's ``cost_analysis`` of a DQN update on an H100 gave 1-3 % of the FLOPs its
-convolutions do, so the MFU computed from it was far too low (bench/RESULTS.md, "The update's
-model FLOPs").  Here every
-``conv_general_dilated`` and ``dot_general`` of the traced program counts
-``2 * (output elements) * (multiply-adds per output element)``, whole kernel windows (XLA's own
-count on CPU leaves out the taps that fall on padding: 0.6 % fewer for the small trunk at
-320 px); elementwise work, gathers and reductions count nothing (the usual "model FLOPs").  Calls, ``jit``, ``remat``,
-custom derivatives and ``scan`` (times its length) are followed; ``cond`` counts its largest
-branch.  A ``while_loop`` has no static trip count and raises.
+convolutions do, so the MFU computed from it was far too low (bench/RESULTS.md, "Where the
+update's time goes").  Here every ``conv_general_dilated`` and ``dot_general`` of the traced
+program counts ``2 * (output elements) * (multiply-adds per output element)``, whole kernel
+windows (XLA's own count on CPU leaves out the taps that fall on padding: 0.6 % fewer for the
+small trunk at 320 px); elementwise work, gathers and reductions count nothing (the usual "model
+FLOPs").  Calls, ``jit``, ``remat``, custom derivatives and ``scan`` (times its length) are
+followed; ``cond`` counts its largest branch.  A ``while_loop`` has no static trip count and
+raises.
 
 Count a forward pass; a training step's model FLOPs are the usual 3 x forward (forward, and
 the two products of the backward pass), which leaves out the zeros a strided convolution's

@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """How fast the Q-networks' two trunks and head run, and whether another formulation of the same
 arithmetic runs faster: the pass that dominates a DQN update (the target network over every
-rotation of the next states) and the actor's choice (bench/RESULTS.md, "The update's model
-FLOPs").
+rotation of the next states) and the actor's choice (bench/RESULTS.md, "Where the update's
+time goes").
 
     python bench/trunk_speed.py --out runs/trunk_speed.json            # gpu preset's GDNet
     python bench/trunk_speed.py --px 32 --width 8 --batches 8 --reps 1  # CPU smoke run
@@ -48,24 +48,27 @@ from timing import matmul_peak, timed  # noqa: E402
 
 from vags_jax import config as C  # noqa: E402
 from vags_jax.nets import init_qnet, make_qnet, normalise_colour, normalise_height, padded_size  # noqa: E402
+from vags_jax.nets.small import folded_batch_norm  # noqa: E402
 
-EPS = 1e-5  # BatchNorm's (vags_jax.nets.densenet.batch_norm)
+
+def _bn(v, trunk: str, layer: str):
+    """``(mul, shift)`` of one trunk's eval-mode BatchNorm ``layer`` (``folded_batch_norm``)."""
+    return folded_batch_norm({"params": v["params"][trunk][layer], "batch_stats": v["batch_stats"][trunk][layer]})
 
 
-def _bn_relu(x, scale, bias, mean, var):
+def _bn_relu(x, mul, shift):
     """Eval-mode BatchNorm then ReLU, per channel (the last axis)."""
-    mul = scale * jax.lax.rsqrt(var + EPS)
-    return jax.nn.relu(x * mul.astype(x.dtype) + (bias - mean * mul).astype(x.dtype))
+    return jax.nn.relu(x * mul.astype(x.dtype) + shift.astype(x.dtype))
 
 
 def _stacked(v, layer: str, norm: bool = False):
     """The colour and depth trunks' ``layer`` joined along the output channels: the conv kernel
-    ``(kh, kw, cin, 2 cout)`` (feature group 0 = colour), or BatchNorm's four vectors."""
-    p, s = v["params"], v["batch_stats"]
+    ``(kh, kw, cin, 2 cout)`` (feature group 0 = colour), or BatchNorm's ``(mul, shift)``."""
+    trunks = ("colour_trunk", "depth_trunk")
     if not norm:
-        return jnp.concatenate([p["colour_trunk"][layer]["kernel"], p["depth_trunk"][layer]["kernel"]], -1)
-    cat = lambda t, k: jnp.concatenate([t["colour_trunk"][layer][k], t["depth_trunk"][layer][k]])  # noqa: E731
-    return cat(p, "scale"), cat(p, "bias"), cat(s, "mean"), cat(s, "var")
+        return jnp.concatenate([v["params"][t][layer]["kernel"] for t in trunks], -1)
+    (m0, s0), (m1, s1) = (_bn(v, t, layer) for t in trunks)
+    return jnp.concatenate([m0, m1]), jnp.concatenate([s0, s1])
 
 
 def _conv(x, kernel, stride: int, pad: int, groups: int = 2):
@@ -75,8 +78,9 @@ def _conv(x, kernel, stride: int, pad: int, groups: int = 2):
 
 def _space_to_depth_first_conv(x, kernel, groups: int = 2):
     """4x4 / 2 pad 1 conv of ``x (N, P, P, groups * c)`` as a 2x2 / 1 conv of the padded input's
-    2 x 2 space-to-depth: tap ``(2a + r, 2b + s)`` of the kernel reads input block ``(a, b)`` at
-    offset ``(r, s)``.  Channels stay grouped per stream: (group, r, s, c)."""
+    2 x 2 space-to-depth (``vags_jax.nets.small.StridedConv``'s, with feature groups): tap
+    ``(2a + r, 2b + s)`` of the kernel reads input block ``(a, b)`` at offset ``(r, s)``.
+    Channels stay grouped per stream: (group, r, s, c)."""
     n, p, _, cg = x.shape
     c = cg // groups
     xp = jnp.pad(x, ((0, 0), (1, 1), (1, 1), (0, 0)))
@@ -91,15 +95,12 @@ def _stream(v, trunk: str, x, s2d: bool, upto: int = 4, fold: bool = False):
     """One trunk's layers ``0 .. upto - 1`` as plain convolutions (``s2d``: the first by
     space-to-depth; ``fold``: eval-mode BatchNorm folded into the kernel and a bias, so that
     each layer is conv + bias + ReLU)."""
-    p, st = v["params"][trunk], v["batch_stats"][trunk]
+    p = v["params"][trunk]
     for i in range(min(upto, 3)):
-        k = p[f"conv{i}"]["kernel"]
-        scale, bias, mean, var = (p[f"norm{i}"]["scale"], p[f"norm{i}"]["bias"], st[f"norm{i}"]["mean"],
-                                  st[f"norm{i}"]["var"])
-        mul = scale * jax.lax.rsqrt(var + EPS)
-        k = k * mul if fold else k
+        mul, shift = _bn(v, trunk, f"norm{i}")
+        k = p[f"conv{i}"]["kernel"] * mul if fold else p[f"conv{i}"]["kernel"]
         x = _space_to_depth_first_conv(x, k, 1) if (s2d and i == 0) else _conv(x, k, 2, 1, 1)
-        x = jax.nn.relu(x + (bias - mean * mul).astype(x.dtype)) if fold else _bn_relu(x, scale, bias, mean, var)
+        x = jax.nn.relu(x + shift.astype(x.dtype)) if fold else _bn_relu(x, mul, shift)
     return _conv(x, p["conv3"]["kernel"], 1, 1, 1) if upto > 3 else x
 
 
