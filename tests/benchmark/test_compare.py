@@ -64,6 +64,11 @@ def test_table1_json_and_csv_from_hand_made_reports(tmp_path):
     CMP.check_same_scenes({**same, "c": _report("c", 1, 1, 1, 4)})  # no config recorded: not compared
     with pytest.raises(ValueError, match=r"camera.global_position: \[0.0, -0.34, 0.502\]"):
         CMP.check_same_scenes({**same, "c": dict(_report("c", 1, 1, 1, 4), config=edge)}, digests=False)
+    centred = json.loads(json.dumps(cfg))
+    centred["camera"]["cx"] = None  # None is a recorded value (the image centre), not a missing one
+    with pytest.raises(ValueError, match=r"camera.cx: 300.0 and None"):
+        CMP.check_same_scenes({"a": dict(reports["a"], config=centred), "c": dict(
+            _report("c", 1, 1, 1, 4), config=dict(centred, camera=dict(centred["camera"], cx=300.0)))})
     edge["scene"]["drop_margin"] = 0.06
     with pytest.raises(ValueError, match=r"\(scene.drop_margin: 0.06 and 0.1\)"):
         CMP.check_same_scenes({**same, "c": dict(_report("c", 1, 1, 1, 4), config=edge)}, digests=False)

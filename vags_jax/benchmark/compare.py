@@ -87,11 +87,16 @@ SCENE_SETTINGS = ("scene", "workspace", "camera.width", "camera.height", "camera
                   "camera.cy", "camera.global_position", "camera.global_target", "camera.noise")
 
 
+_UNRECORDED = object()
+
+
 def _setting(report: dict, path: str):
+    """The value at ``path`` of the report's recorded config (None is a value, e.g. ``camera.cx``),
+    or ``_UNRECORDED``."""
     value = report.get("config")
     for part in path.split("."):
         if not isinstance(value, dict) or part not in value:
-            return None
+            return _UNRECORDED
         value = value[part]
     return value
 
@@ -119,7 +124,7 @@ def check_same_scenes(reports: dict, digests: bool = True) -> None:
                                  f"a table needs every method on the same scenes (same --seed, --groups, --rounds)")
         for path in SCENE_SETTINGS:
             a, b = _setting(rep, path), _setting(first, path)
-            if a is not None and b is not None and a != b:
+            if a is not _UNRECORDED and b is not _UNRECORDED and a != b:
                 where, va, vb = _first_difference(path, a, b)
                 raise ValueError(f"--compare: {label} and {first_label} played scenes of different settings "
                                  f"({where}: {va} and {vb}): put reports of one scene variant (--scenes) in a table")
