@@ -173,7 +173,12 @@ def main(argv=None) -> int:
     p.add_argument("--set", nargs="*", default=[], metavar="SECTION.FIELD=VALUE")
     p.add_argument("--out", default=None)
     p.add_argument("--rows", default=None, help="write the per-state values to this .npz")
+    from vags_jax import cli
+    cli.add_cache_dir(p)
     args = p.parse_args(argv)
+    error = cli.use_compile_cache("viewpoint_states.py", args.cache_dir)
+    if error is not None:
+        return error
 
     import jax
     import numpy as np

@@ -50,3 +50,15 @@ def test_viewpoint_rows_ranks_moves_by_calibrated_p_direct(tmp_path):
     # so 3 of 4 succeed and the move adds 1.0.
     row = [r for r in moves if r.startswith("| 0.25 |")]
     assert row and "| 75.0 | 75.0 | 50.0 | +1.000 |" in row[0]
+
+
+def test_viewpoint_states_refuses_an_unusable_cache_dir(tmp_path, capsys):
+    """--cache-dir as in train.py and eval.py: an unusable directory ends with one line and exit 2,
+    before any run is read."""
+    from viewpoint_states import main
+
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    assert main(["--run", str(tmp_path / "no_run"), "--cache-dir", str(blocker / "cc")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--cache-dir" in err[0] and "writable directory" in err[0]

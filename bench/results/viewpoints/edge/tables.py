@@ -1,7 +1,9 @@
-"""Prints the tables of bench/RESULTS.md, "Viewpoints that pay, seventeenth look": the sixth run's
-networks (trained on the default scenes; split GDNet pick, close region "seen") on the "edge"
-scene variant, VAGS and ``--no-viewpoint``, seeds 11-13, beside the same networks on the default
-scenes (``default/sixth_run/split/seed*``, the fifteenth look).
+"""Prints the tables of bench/RESULTS.md, "Viewpoints that pay, eighteenth look": two runs trained
+on the "edge" scene variant (``--config gpu-edge``; the first's logs in ``trained_run/``, its
+reports in ``seed<S>/``; the second's in ``second_trained_run/``, with VAGS under the "success"
+gate too), VAGS and ``--no-viewpoint`` on the edge scenes, seeds 11-13, beside the sixth run's
+networks (trained on the default scenes) on the same scenes (``sixth_run_networks/``, the
+seventeenth look).
 Run from anywhere: python bench/results/viewpoints/edge/tables.py"""
 import os
 import sys
@@ -10,28 +12,34 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, ".."))
 from report_tables import differences, find, row, table  # noqa: E402
 
-DEFAULT = os.path.join(HERE, "..", "default", "sixth_run", "split")
+SIXTH = os.path.join(HERE, "sixth_run_networks")
+SECOND = os.path.join(HERE, "second_trained_run")
 
 
 def main():
     cases, gains, branches = [], [], []
-    for scenes, folder in (("edge", HERE), ("default", DEFAULT)):
+    runs = (("edge run 1", HERE, ("eval_vags",)),
+            ("edge run 2", SECOND, ("eval_vags", "eval_vags-success-gate")),
+            ("sixth run (default scenes)", SIXTH, ("eval_vags",)))
+    for nets, folder, names in runs:
         for s in (11, 12, 13):
             nv = find(os.path.join(folder, f"seed{s}"), "eval_vags-no-viewpoint")
-            va = find(os.path.join(folder, f"seed{s}"), "eval_vags")
-            cases += [(s, scenes, "`--no-viewpoint`", nv), (s, scenes, "VAGS", va)]
-            rn, rv = row(nv), row(va)
-            gains.append((f"{s} ({scenes})", rv[0] - rn[0], rv[1] - rn[1], rv[2] - rn[2]))
-            o = va["overall"]
-            if "success_after_move" in o:
-                branches.append((s, scenes, o["success_direct"], o["success_after_move"], o["first_attempt_success"],
-                                 nv["overall"]["first_attempt_success"]))
-    table("The sixth run's networks on the edge and default scenes", cases)
+            cases.append((s, nets, "`--no-viewpoint`", nv))
+            for name in names:
+                va = find(os.path.join(folder, f"seed{s}"), name)
+                policy = "VAGS, success gate" if name.endswith("success-gate") else "VAGS"
+                cases.append((s, nets, policy, va))
+                rn, rv = row(nv), row(va)
+                gains.append((f"{s} ({nets}, {policy})", rv[0] - rn[0], rv[1] - rn[1], rv[2] - rn[2]))
+                o = va["overall"]
+                branches.append((s, f"{nets}, {policy}", o["success_direct"], o["success_after_move"],
+                                 o["first_attempt_success"], nv["overall"]["first_attempt_success"]))
+    table("The edge scenes, groups 1-10 x 50 rounds", cases)
     differences("Points, VAGS − ablation", ["success", "6-10 success", "6-10 clearing"], gains)
-    print("\n| seed | scenes | VAGS: direct grasps % | VAGS: grasps after a move % | VAGS: first attempts % | "
+    print("\n| seed | networks | VAGS: direct grasps % | VAGS: grasps after a move % | VAGS: first attempts % | "
           "ablation: first attempts % |\n|---:|---|---:|---:|---:|---:|")
-    for s, scenes, d, m, f, fn in branches:
-        print(f"| {s} | {scenes} | {100 * d:.1f} | {100 * m:.1f} | {100 * f:.1f} | {100 * fn:.1f} |")
+    for s, nets, d, m, f, fn in branches:
+        print(f"| {s} | {nets} | {100 * d:.1f} | {100 * m:.1f} | {100 * f:.1f} | {100 * fn:.1f} |")
 
 
 if __name__ == "__main__":
