@@ -30,8 +30,9 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 
-def random_batch(cfg, key, b: int):
-    """``b`` random transitions of this config's heightmap size and importance weights 1."""
+def random_transitions(cfg, key, b: int):
+    """``b`` random grasp transitions of this config's heightmap size (``GraspTransition``) and
+    importance weights 1 (b,)."""
     import jax
     import jax.numpy as jnp
 
@@ -121,12 +122,12 @@ def _measure_programs(args, cfg, programs) -> dict:
     if "update" in programs:
         learner = dqn.create_train_state(variables, cfg.dqn)
         update = dqn.make_update_step(apply, cfg.dqn, executed_rotation_only=True)
-        batch, w = random_batch(cfg, jax.random.PRNGKey(1), cfg.dqn.batch_size)
+        batch, w = random_transitions(cfg, jax.random.PRNGKey(1), cfg.dqn.batch_size)
         report["programs"]["update"] = measure(jax.jit(lambda ts, b, w: update(ts, b, w)[:2]), learner, batch, w)
         print(f"update: {report['programs']['update']}", file=sys.stderr, flush=True)
     if "forward" in programs:
         n = args.worlds or cfg.stage1.n_worlds
-        batch, _ = random_batch(cfg, jax.random.PRNGKey(2), n)
+        batch, _ = random_transitions(cfg, jax.random.PRNGKey(2), n)
         fwd = jax.jit(lambda v, c, h: apply(v, c, h, False))
         report["programs"]["forward"] = dict(measure(fwd, variables, batch.color, batch.height.astype("float32")),
                                              worlds=n)

@@ -39,6 +39,7 @@ import numpy as np
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
+from compile_time import random_transitions  # noqa: E402
 from flop_count import forward_flops  # noqa: E402
 from timing import matmul_peak  # noqa: E402
 
@@ -69,13 +70,7 @@ def flops_of(jitted, *args) -> float:
 
 def random_batch(cfg, key, b: int):
     """A replay sample of ``b`` random transitions of this config's heightmap size."""
-    H = cfg.workspace.heightmap_px
-    k = jax.random.split(key, 4)
-    color = jax.random.randint(k[0], (b, H, H, 3), 0, 256).astype(jnp.uint8)
-    height = jax.random.uniform(k[1], (b, H, H), maxval=0.1)
-    action = jnp.stack([jax.random.randint(k[2], (b,), 0, cfg.net.n_rotations),
-                        jax.random.randint(k[3], (b,), 0, H), jax.random.randint(k[3], (b,), 0, H)], 1)
-    t = replay.make_grasp_transition(color, height, action, jnp.ones((b,)), color, height, jnp.zeros((b,), bool))
+    t, _ = random_transitions(cfg, key, b)
     buffer = replay.add(replay.init(b, jax.tree.map(lambda x: x[0], t)), t)
     _, batch, w = replay.sample(buffer, key, cfg.dqn.batch_size, cfg.replay.alpha, cfg.replay.beta)
     return batch, w
