@@ -11,12 +11,12 @@ Programs (this config's GDNet, random inputs of its heightmap size):
 * ``forward``: the greedy pass over ``--worlds`` states x every rotation (the collect step's
   network work), in eval mode.
 
-Each is lowered and compiled in this process with JAX's persistent compile cache off, so the
-figures are a cold start's.  ``lower_s`` is tracing + lowering to StableHLO, ``compile_s``
-XLA's compile (on a GPU it includes autotuning; ``XLA_FLAGS`` is recorded), ``run_s`` the median
-of three calls after a warm-up call.  The stages compile these inside larger programs (a
-stage's chunk), so the sum here is a lower bound of a chunk's compile.  Needs only jax, flax and
-optax: no physics.
+Each is lowered and compiled in this process; run as a command, JAX's persistent compile
+cache is off (``persistent_cache`` in the report), so the figures are a cold start's.
+``lower_s`` is tracing + lowering to StableHLO, ``compile_s`` XLA's compile (on a GPU it
+includes autotuning; ``XLA_FLAGS`` is recorded), ``run_s`` the median of three calls after a
+warm-up call.  The stages compile these inside larger programs (a stage's chunk), so the sum
+here is a lower bound of a chunk's compile.  Needs only jax, flax and optax: no physics.
 """
 from __future__ import annotations
 
@@ -81,20 +81,13 @@ def main(argv=None) -> int:
     if not programs or set(programs) - {"update", "forward"}:
         p.error(f"--programs takes update and/or forward, got {args.programs!r}")
 
-    import jax
-
     from vags_jax import config as C
 
     try:
         cfg = C.replace(C.preset(args.config), **C.parse_overrides(args.set))
     except ValueError as e:
         p.error(str(e))
-    was = jax.config.jax_enable_compilation_cache
-    jax.config.update("jax_enable_compilation_cache", False)  # a cold start's compile
-    try:
-        report = _measure_programs(args, cfg, programs)
-    finally:
-        jax.config.update("jax_enable_compilation_cache", was)
+    report = _measure_programs(args, cfg, programs)
     print(json.dumps(report))
     if args.out:
         os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
@@ -118,7 +111,9 @@ def _measure_programs(args, cfg, programs) -> dict:
     report = {"config": args.config, "set": args.set, "trunk": cfg.net.trunk, "dtype": cfg.net.dtype,
               "heightmap_px": H, "rotations": cfg.net.n_rotations, "batch_size": cfg.dqn.batch_size,
               "xla_flags": os.environ.get("XLA_FLAGS", ""), "device": str(jax.devices()[0]),
-              "jax": jax.__version__, "programs": {}}
+              "jax": jax.__version__, "programs": {},
+              # False from the command line (a cold start); True where a caller's cache may have served it
+              "persistent_cache": bool(jax.config.jax_enable_compilation_cache and jax.config.jax_compilation_cache_dir)}
     if "update" in programs:
         learner = dqn.create_train_state(variables, cfg.dqn)
         update = dqn.make_update_step(apply, cfg.dqn, executed_rotation_only=True)
@@ -136,4 +131,7 @@ def _measure_programs(args, cfg, programs) -> dict:
 
 
 if __name__ == "__main__":
+    import jax
+
+    jax.config.update("jax_enable_compilation_cache", False)  # before any compile: nothing comes from a cache
     sys.exit(main())
