@@ -80,6 +80,8 @@ def main(argv=None) -> int:
     programs = [s for s in args.programs.split(",") if s]
     if not programs or set(programs) - {"update", "forward"}:
         p.error(f"--programs takes update and/or forward, got {args.programs!r}")
+    if args.worlds is not None and args.worlds < 1:
+        p.error(f"--worlds must be at least 1, got {args.worlds}")
 
     from vags_jax import config as C
 
@@ -121,7 +123,7 @@ def _measure_programs(args, cfg, programs) -> dict:
         report["programs"]["update"] = measure(jax.jit(lambda ts, b, w: update(ts, b, w)[:2]), learner, batch, w)
         print(f"update: {report['programs']['update']}", file=sys.stderr, flush=True)
     if "forward" in programs:
-        n = args.worlds or cfg.stage1.n_worlds
+        n = cfg.stage1.n_worlds if args.worlds is None else args.worlds
         batch, _ = random_transitions(cfg, jax.random.PRNGKey(2), n)
         fwd = jax.jit(lambda v, c, h: apply(v, c, h, False))
         report["programs"]["forward"] = dict(measure(fwd, variables, batch.color, batch.height.astype("float32")),

@@ -29,3 +29,6 @@ def test_compile_time_refuses_unknown_programs_and_settings(capsys):
     with pytest.raises(SystemExit) as e:
         main(["--config", "tiny", "--set", "dqn.batch_size=0"])
     assert e.value.code == 2 and "batch_size" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as e:
+        main(["--config", "tiny", "--worlds", "0"])
+    assert e.value.code == 2 and "--worlds" in capsys.readouterr().err
