@@ -66,6 +66,26 @@ def auroc(score, label):
     return float((ranks[:pos.size].sum() - pos.size * (pos.size + 1) / 2) / (pos.size * neg.size))
 
 
+SAME_GRASP_CELLS = 5  # two grasps within this many cells (1 cm at 2 mm) and of one rotation are "the same"
+
+
+def view_footprint(height, close_view, close_rand, height_threshold: float) -> dict:
+    """How much of the pile a close view covers, and whether VANet's viewpoint changes the grasp:
+    height (B, H, W) the global map; close_view / close_rand the ``CloseView`` of VANet's and
+    the random cell's moves -> {"seen_view", "seen_random"} (B,) the share of object cells
+    (height > height_threshold) each close view saw, and "same_grasp" (B,) bool, the two fused-map
+    grasps of one rotation within ``SAME_GRASP_CELLS`` cells of each other."""
+    import jax.numpy as jnp
+
+    obj = height > height_threshold
+    n_obj = jnp.maximum(obj.sum(axis=(1, 2)), 1)
+    share = lambda seen: (seen & obj).sum(axis=(1, 2)) / n_obj  # noqa: E731
+    a, b = close_view.action, close_rand.action
+    near = jnp.max(jnp.abs(a[:, 1:] - b[:, 1:]), axis=1) <= SAME_GRASP_CELLS
+    return {"seen_view": share(close_view.seen), "seen_random": share(close_rand.seen),
+            "same_grasp": near & (a[:, 0] == b[:, 0])}
+
+
 def make_step(cfg, env, has_ggcnn: bool, has_mean: bool):
     """-> jitted ``(params, key, state) -> (next state, per-world dict)``."""
     import jax
@@ -97,14 +117,14 @@ def make_step(cfg, env, has_ggcnn: bool, has_mean: bool):
         a_gt, _ = greedy(gdnet_q(color_gt, height_gt))
         pos, yaw = env.grasp_pose(state.replace(height=height_gt), a_gt[:, 1:], a_gt[:, 0])
         attempts["oracle"] = env.direct_attempt(pos, yaw)
-        attempts["view_gdnet"], _ = close_view_grasp(cfg_gd, env, state, d_q.view, k_gd, close_q)
+        attempts["view_gdnet"], close_view = close_view_grasp(cfg_gd, env, state, d_q.view, k_gd, close_q)
         if has_ggcnn:
             attempts["view_ggcnn"], _ = close_view_grasp(cfg_gg, env, state, d_q.view, k_gg, None, params["ggcnn"],
                                                          nets.ggcnn)
         cell = jax.vmap(lambda k, h: exploration._random_pixel(k, h, cfg.exploration))(
             jax.random.split(k_rand, state.n_worlds), state.height)
         rand_view = jnp.stack(jnp.unravel_index(cell, state.height.shape[1:]), -1).astype(jnp.int32)
-        attempts["random_gdnet"], _ = close_view_grasp(cfg_gd, env, state, rand_view, k_rv, close_q)
+        attempts["random_gdnet"], close_rand = close_view_grasp(cfg_gd, env, state, rand_view, k_rv, close_q)
         attempts["grasp_gdnet"], _ = close_view_grasp(cfg_gd, env, state, d_q.grasp[:, 1:], k_gv, close_q)
         again = env.with_observation(state, k_re)
         a_re, _ = greedy(gdnet_q(again.color, again.height))
@@ -114,7 +134,8 @@ def make_step(cfg, env, has_ggcnn: bool, has_mean: bool):
         out.update(q_max=d_q.q_max, p_direct=value_at(q_success, d_q.grasp),
                    p_view=jnp.max(q_view.reshape(q_view.shape[0], -1), axis=1),
                    direct_success_gate=d_s.direct, direct_mean_gate=d_m.direct, direct_q_gate=d_q.direct,
-                   objects=env.n_remaining(state), live=(env.n_remaining(state) > 0) & ~state.sim.error)
+                   objects=env.n_remaining(state), live=(env.n_remaining(state) > 0) & ~state.sim.error,
+                   **view_footprint(state.height, close_view, close_rand, cfg.exploration.height_threshold))
         nxt, _ = env.step_attempt(state, attempts["direct"], k_obs if noisy else None)
         return nxt, out
 
@@ -144,6 +165,8 @@ def summarize(rows: dict, has_ggcnn: bool, has_mean: bool = False) -> dict:
         entry["auroc_p_view"] = auroc(rows["p_view"][m], rows["view_gdnet"][m])
         entry["mean_p_direct"] = float(np.mean(rows["p_direct"][m])) if m.any() else None
         entry["mean_p_view"] = float(np.mean(rows["p_view"][m])) if m.any() else None
+        for name_ in ("seen_view", "seen_random", "same_grasp"):  # absent in --rows files of older runs
+            entry[name_] = float(np.mean(rows[name_][m])) if name_ in rows and m.any() else None
         out[name] = entry
     return out
 
@@ -152,12 +175,14 @@ def table(summary: dict, has_ggcnn: bool) -> str:
     cols = [b for b in BRANCHES if has_ggcnn or b != "view_ggcnn"]
     pct = lambda v: "-" if v is None else f"{100 * v:.1f}"  # noqa: E731
     num = lambda v: "-" if v is None else f"{v:.3f}"  # noqa: E731
-    lines = ["| states | n | " + " | ".join(cols) + " | AUROC p_direct | AUROC Q | AUROC p_view | mean p_direct | mean p_view |",
-             "|---|---:|" + "---:|" * (len(cols) + 5)]
+    lines = ["| states | n | " + " | ".join(cols) + " | AUROC p_direct | AUROC Q | AUROC p_view | mean p_direct | mean p_view"
+             " | pile seen, VANet's view % | pile seen, random view % | same grasp % |",
+             "|---|---:|" + "---:|" * (len(cols) + 8)]
     for name, e in summary.items():
         lines.append(f"| {name} | {e['states']} | " + " | ".join(pct(e[c]) for c in cols) +
                      f" | {num(e['auroc_p_direct'])} | {num(e['auroc_q_max'])} | {num(e['auroc_p_view'])} | "
-                     f"{num(e['mean_p_direct'])} | {num(e['mean_p_view'])} |")
+                     f"{num(e['mean_p_direct'])} | {num(e['mean_p_view'])} | {pct(e.get('seen_view'))} | "
+                     f"{pct(e.get('seen_random'))} | {pct(e.get('same_grasp'))} |")
     return "\n".join(lines)
 
 

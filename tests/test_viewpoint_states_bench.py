@@ -62,3 +62,37 @@ def test_viewpoint_states_refuses_an_unusable_cache_dir(tmp_path, capsys):
     assert main(["--run", str(tmp_path / "no_run"), "--cache-dir", str(blocker / "cc")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--cache-dir" in err[0] and "writable directory" in err[0]
+
+
+def test_view_footprint_counts_the_pile_each_close_view_saw():
+    """Two hand-made worlds: the share of object cells each close view saw, and whether VANet's
+    and the random view's grasps are the same one (one rotation, within SAME_GRASP_CELLS)."""
+    import jax.numpy as jnp
+    import numpy as np
+    from viewpoint_states import SAME_GRASP_CELLS, summarize, view_footprint
+
+    from vags_jax.policies.decision import CloseView
+
+    height = np.zeros((2, 8, 8), np.float32)
+    height[:, 2:6, 2:6] = 0.03  # 16 object cells per world
+    seen_a = np.zeros((2, 8, 8), bool)
+    seen_a[:, 0:4, :] = True  # rows 2-3 of the object: 8 of 16 cells
+    seen_b = np.zeros((2, 8, 8), bool)
+    seen_b[0] = True  # world 0 sees everything, world 1 nothing
+    a = jnp.array([[3, 2, 2], [3, 2, 2]], jnp.int32)
+    b = jnp.array([[3, 2 + SAME_GRASP_CELLS, 2], [4, 2, 2]], jnp.int32)  # same grasp / another rotation
+    view = lambda seen, act: CloseView(image=None, color=None, height=None, seen=jnp.asarray(seen), action=act)  # noqa: E731
+    out = view_footprint(jnp.asarray(height), view(seen_a, a), view(seen_b, b), 0.01)
+    np.testing.assert_allclose(out["seen_view"], [0.5, 0.5])
+    np.testing.assert_allclose(out["seen_random"], [1.0, 0.0])
+    assert out["same_grasp"].tolist() == [True, False]
+    far = view_footprint(jnp.asarray(height), view(seen_a, a), view(seen_b, b.at[0, 1].add(1)), 0.01)
+    assert not bool(far["same_grasp"][0])
+    rows = {k: np.asarray(v) for k, v in out.items()}
+    rows.update({name: np.array([1, 0], bool) for name in
+                 ("direct", "oracle", "view_gdnet", "random_gdnet", "grasp_gdnet", "relook_direct")})
+    rows.update(live=np.array([1, 1], bool), p_direct=np.array([0.9, 0.1]), q_max=np.array([0.9, 0.1]),
+                p_view=np.array([0.5, 0.5]), direct_success_gate=np.array([1, 0], bool),
+                direct_q_gate=np.array([1, 0], bool))
+    entry = summarize(rows, has_ggcnn=False)["all"]
+    assert entry["seen_view"] == 0.5 and entry["seen_random"] == 0.5 and entry["same_grasp"] == 0.5
