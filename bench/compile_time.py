@@ -15,7 +15,8 @@ Each is lowered and compiled in this process; run as a command, JAX's persistent
 cache is off (``persistent_cache`` in the report), so the figures are a cold start's.
 ``lower_s`` is tracing + lowering to StableHLO, ``compile_s`` XLA's compile (on a GPU it
 includes autotuning; ``XLA_FLAGS`` is recorded), ``run_s`` the median of three calls after a
-warm-up call.  The stages compile these inside larger programs (a stage's chunk), so the sum
+warm-up call, ``temp_bytes`` / ``argument_bytes`` XLA's buffer sizes (where the backend
+reports them).  The stages compile these inside larger programs (a stage's chunk), so the sum
 here is a lower bound of a chunk's compile.  Needs only jax, flax and optax: no physics.
 """
 from __future__ import annotations
@@ -65,8 +66,13 @@ def measure(jitted, *args) -> dict:
         t = time.perf_counter()
         jax.block_until_ready(compiled(*args))
         runs.append(time.perf_counter() - t)
-    return {"lower_s": round(t_lower, 3), "compile_s": round(t_compile, 3), "run_s": float(np.median(runs)),
-            "stablehlo_lines": lowered.as_text().count("\n")}
+    out = {"lower_s": round(t_lower, 3), "compile_s": round(t_compile, 3), "run_s": float(np.median(runs)),
+           "stablehlo_lines": lowered.as_text().count("\n")}
+    memory = compiled.memory_analysis()  # None where the backend does not report it
+    if memory is not None:
+        out["temp_bytes"] = int(memory.temp_size_in_bytes)
+        out["argument_bytes"] = int(memory.argument_size_in_bytes)
+    return out
 
 
 def main(argv=None) -> int:

@@ -19,6 +19,8 @@ def test_compile_time_reports_the_forward_program(tmp_path, capsys):
     assert set(report["programs"]) == {"forward"} and fwd["worlds"] == 2
     assert fwd["compile_s"] > 0 and fwd["run_s"] > 0 and fwd["lower_s"] > 0 and fwd["stablehlo_lines"] > 100
     assert report["trunk"] == "small" and report["heightmap_px"] == 32 and report["rotations"] == 16
+    # CPU reports XLA's buffer sizes; the 2 x 16 rotated 32 x 32 states need scratch space.
+    assert fwd["temp_bytes"] > 0 and fwd["argument_bytes"] > 0
     assert report["persistent_cache"] is bool(jax.config.jax_compilation_cache_dir)  # the suite's cache (conftest)
 
 
