@@ -257,6 +257,29 @@ def test_stage3_direct_keeps_its_fused_map_grasps_out_of_gdnets_replay(runs, pro
     assert int(state.gdnet_replay.size) == direct, "a grasp on a fused map reached GDNet's replay"
 
 
+def test_stages_2_and_3_run_one_compiled_program(runs):
+    """Stages 2 and 3 of one config differ only in traced switches (``StageFlags``): built by
+    one ``Programs``, stage 3 runs stage 2's jitted chunk, and the pipeline's stage 3 compiled
+    nothing of its own (its start loads stage 2's programs; ``timings.jsonl``).  Stages whose
+    worlds differ build their own programs, and one refuses the other's."""
+    from vags_jax.stages.programs import Programs
+
+    full, _ = runs
+    cfg = checkpoint.load_config(full)
+    progs = Programs()
+    s2, s3 = progs.stage("stage2", cfg), progs.stage("stage3", cfg)
+    assert s2.which == 2 and s3.which == 3 and s3._run_jit is s2._run_jit
+    assert bool(s3.flags.stage3) and not bool(s2.flags.stage3) and bool(s3.flags.train_gdnet)
+    stage3 = [r for r in _timings(full) if r["stage"] == "stage3"]
+    assert stage3 and stage3[0]["compile"]["compiled"] == 0, stage3[0]["compile"]
+    other = C.replace(cfg, **{"stage3.n_worlds": cfg.stage3.n_worlds + 1})
+    progs2 = Programs()
+    o2, o3 = progs2.stage("stage2", other), progs2.stage("stage3", other)
+    assert o3._run_jit is not o2._run_jit
+    with pytest.raises(ValueError, match="program_key"):
+        o3.use_program_of(o2)
+
+
 def test_the_run_keeps_the_gdnets_whose_gate_table_picks_most(runs, tmp_path):
     """``vags.stage3_gdnet_pick="rate"``: the pipeline measured the gate table with stage 3's
     GDNet, with stage 2's, and with stage 2's for direct grasps and stage 3's after a move

@@ -42,8 +42,16 @@ class Programs:
             make = (lambda: DataParallelStage1(cfg, self.env(cfg))) if cfg.parallel.devices > 1 else (
                 lambda: Stage1(cfg, self.env(cfg)))
         else:
-            make = lambda: VagsStage(cfg, pipeline.which_stage(name), self.env(cfg))  # noqa: E731
+            make = lambda: self._share_program(VagsStage(cfg, pipeline.which_stage(name), self.env(cfg)))  # noqa: E731
         return self.get(self.cfg_key(name, cfg), make)
+
+    def _share_program(self, stage: VagsStage) -> VagsStage:
+        """Stages 2 and 3 of one config usually build the same chunk program (their switches are
+        traced): the second one built runs the first one's, so it compiles nothing."""
+        first = self.get(("vags_program", stage.program_key()), lambda: stage)
+        if first is not stage:
+            stage.use_program_of(first)
+        return stage
 
     def vpg(self, cfg) -> vpg_stage.VpgStage:
         """VPG's built stage for ``cfg`` on this process's env."""

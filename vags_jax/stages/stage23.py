@@ -37,7 +37,10 @@ learns with VANet's reward and replay, every attempt moves to its viewpoint (DAE
 as VANet's), and the success net is not trained.  Its worlds follow ``cfg.nbv``.
 
 Everything is one ``lax.scan`` inside one jit.  ``VagsStage.run(state, n)`` advances n
-iterations; running the same chunks from a restored state gives bit-identical results.
+iterations; running the same chunks from a restored state gives bit-identical results.  What
+differs between stages 2 and 3 (the gate, whether GDNet explores and learns, what enters its
+replay) is traced (``StageFlags``), so where the two stages' worlds, objects and updates match,
+they run one compiled program (``vags_jax.stages.programs``): stage 3 compiles nothing.
 ``vags_jax.stages.pipeline`` chains them with stage 1 and GG-CNN.
 """
 from __future__ import annotations
@@ -133,6 +136,17 @@ def _example_transition(H: int, action_dim: int):
     color, height = jnp.zeros((H, H, 3), jnp.uint8), jnp.zeros((H, H), jnp.float32)
     return replay.make_grasp_transition(color, height, jnp.zeros((action_dim,), jnp.int32), 0.0, color, height,
                                         False)
+
+
+@struct.dataclass
+class StageFlags:
+    """The switches between stages 2 and 3, each () bool and traced, so that both stages run one
+    compiled program: stage3 (the gate is ``vags.gate``, else "q"), train_gdnet (GDNet explores
+    and learns) and fused_to_replay (GDNet's grasps on the fused close-view maps enter its replay)."""
+
+    stage3: jax.Array
+    train_gdnet: jax.Array
+    fused_to_replay: jax.Array
 
 
 class VagsStage:
@@ -236,41 +250,58 @@ class VagsStage:
 
     # ------------------------------------------------------------------ one iteration
 
-    def _learn(self, state: VagsTrainState, va_buffer, gd_buffer, key):
+    def _learn(self, state: VagsTrainState, va_buffer, gd_buffer, key, train_gdnet: jax.Array):
         """The iteration's updates -> (gdnet, vanet, success, gd_buffer, va_buffer, stats
-        {"gdnet", "vanet", "success"} of (2,) [loss, |td|], updates done)."""
+        {"gdnet", "vanet", "success"} of (2,) [loss, |td|], updates done).  train_gdnet: ()
+        bool, traced (stages 2 and 3 share one program): GDNet's updates run under ``lax.cond``."""
         cfg, st = self.cfg, self.stage
         k_g, k_s, k_v = jax.random.split(key, 3)
         learn = lambda upd, ts, buf, k: dqn.learn_from_replay(  # noqa: E731
             upd, ts, buf, k, cfg, st.updates_per_iteration, st.learning_starts)
-        gdnet, gd_stats, n_gd = state.gdnet, jnp.zeros((2,), jnp.float32), 0
-        if self.train_gdnet:
-            gdnet, gd_buffer, gd_stats, n_gd = learn(self.update_gdnet, state.gdnet, gd_buffer, k_g)
-            # The success net samples by GDNet's priorities (GDNet owns the buffer in stage 3).
-            success, _, s_stats, n_s = learn(self.update_success, state.success, gd_buffer, k_s)
-        elif self.nbv:  # the viewpoint network alone learns
+        if self.nbv:  # the viewpoint network alone learns
+            gdnet, gd_stats, n_gd = state.gdnet, jnp.zeros((2,), jnp.float32), 0
             success, s_stats, n_s = state.success, jnp.zeros((2,), jnp.float32), 0
         else:
-            success, gd_buffer, s_stats, n_s = learn(self.update_success, state.success, gd_buffer, k_s)
+            # Only the priorities pass through the cond: the transitions are read, never copied.
+            def gd_learn(ts, prio, top):
+                ts, buf, stats_, n = learn(self.update_gdnet, ts, gd_buffer.replace(priorities=prio, max_priority=top),
+                                           k_g)
+                return ts, buf.priorities, buf.max_priority, stats_, jnp.asarray(n, jnp.int32)
+
+            def gd_frozen(ts, prio, top):
+                return ts, prio, top, jnp.zeros((2,), jnp.float32), jnp.zeros((), jnp.int32)
+
+            gdnet, prio, top, gd_stats, n_gd = jax.lax.cond(train_gdnet, gd_learn, gd_frozen, state.gdnet,
+                                                            gd_buffer.priorities, gd_buffer.max_priority)
+            # The success net samples by GDNet's priorities when GDNet learns (it owns the buffer then);
+            # with GDNet frozen, the success net's own priorities are kept.
+            success, s_buffer, s_stats, n_s = learn(self.update_success, state.success,
+                                                    gd_buffer.replace(priorities=prio, max_priority=top), k_s)
+            gd_buffer = s_buffer.replace(priorities=jnp.where(train_gdnet, prio, s_buffer.priorities),
+                                         max_priority=jnp.where(train_gdnet, top, s_buffer.max_priority))
         vanet, va_buffer, va_stats, n_va = learn(self.update_vanet, state.vanet, va_buffer, k_v)
         stats = {"gdnet": gd_stats, "vanet": va_stats, "success": s_stats}
         return gdnet, vanet, success, gd_buffer, va_buffer, stats, n_gd + n_s + n_va
 
-    def _decision(self, state: VagsTrainState, q_view, grasp, view) -> Decision:
-        """The gate on the carried GDNet values: "q" in stage 2, ``vags.gate`` in stage 3."""
+    def _decision(self, state: VagsTrainState, q_view, grasp, view, stage3: jax.Array) -> Decision:
+        """The gate on the carried GDNet values: "q" in stage 2, ``vags.gate`` in stage 3
+        (stage3: () bool, traced)."""
         cfg, s = self.cfg, state.env
-        gate = "q" if self.which == 2 else cfg.vags.gate
         if self.nbv:  # no direct grasp to estimate
             p_direct = jnp.zeros_like(state.gd_qmax)
         else:
             p_direct = self._p_direct(state.success, s, state.gd_grasp)
         p_view = q_view.reshape(q_view.shape[0], -1).max(axis=1)
-        score = gate_score(gate, state.gd_qmax, p_direct, p_view, state.calibration, cfg.vags.view_estimate)
-        thr = state.threshold if gate == "q" else gate_threshold(cfg.vags, state.threshold)
+        score = gate_score("q", state.gd_qmax, p_direct, p_view, state.calibration, cfg.vags.view_estimate)
+        thr = state.threshold
+        if cfg.vags.gate != "q" and not self.nbv:
+            score = jnp.where(stage3, gate_score(cfg.vags.gate, state.gd_qmax, p_direct, p_view, state.calibration,
+                                                 cfg.vags.view_estimate), score)
+            thr = jnp.where(stage3, gate_threshold(cfg.vags, state.threshold), thr)
         return Decision(direct=score > thr, grasp=grasp, view=view, q_max=state.gd_qmax, score=score), p_direct, p_view
 
     # Long (one reason): one iteration of the paper's loop, steps 1-6 of the module docstring in order.
-    def _iteration(self, state: VagsTrainState, fused_to_replay: jax.Array):
+    def _iteration(self, state: VagsTrainState, flags: "StageFlags"):
         cfg, env, st = self.cfg, self.env, self.stage
         key, k_gx, k_vx, k_img, k_obs, k_n, k_reset, k_learn = jax.random.split(state.key, 8)
         s = state.env
@@ -279,14 +310,14 @@ class VagsStage:
         q_view = self._in_groups(lambda c, h: self._apply_vanet(self._vars(state.vanet), c, h, False),
                                  s.color, s.height)  # (B, H, W)
         view, v_explored = exploration.select_pixel(k_vx, q_view, s.height, eps, cfg.exploration)
-        if self.train_gdnet:
-            grasp, g_explored = exploration.select_grasp_from_greedy(
-                k_gx, state.gd_grasp, cfg.net.n_rotations, s.height, eps, cfg.exploration)
-        else:
-            grasp, g_explored = state.gd_grasp, jnp.zeros((B,), bool)
+        # GDNet explores its direct grasps only while it learns (stage 3).
+        grasp, g_explored = exploration.select_grasp_from_greedy(
+            k_gx, state.gd_grasp, cfg.net.n_rotations, s.height, eps, cfg.exploration)
+        grasp = jnp.where(flags.train_gdnet, grasp, state.gd_grasp)
+        g_explored = g_explored & flags.train_gdnet
         if cfg.vags.viewpoint == "grasp":  # look at the grasp GDNet would make
             view, v_explored = grasp[:, 1:], g_explored
-        decision, p_direct, p_view = self._decision(state, q_view, grasp, view)
+        decision, p_direct, p_view = self._decision(state, q_view, grasp, view, flags.stage3)
         direct = decision.direct
         attempt, close = plan_attempt(cfg, env, s, decision, k_img, self._gdnet_q(state.gdnet), state.ggcnn,
                                       self.ggcnn)
@@ -308,14 +339,14 @@ class VagsStage:
         va_buffer = replay.add(state.vanet_replay, replay.make_grasp_transition(
             s.color, s.height, view, r_view, s2.color, s2.height, over), mask=viewing)
         # GDNet's grasps: direct ones on the global maps, close-view ones on the fused maps.
-        on_fused = ~direct & fused_to_replay
+        on_fused = ~direct & flags.fused_to_replay
         pick = lambda a, b: jnp.where(on_fused.reshape((-1,) + (1,) * (a.ndim - 1)), a, b)  # noqa: E731
         r_grasp = jnp.where(success, cfg.vags.success_reward, 0.0).astype(jnp.float32)
         gd_buffer = replay.add(state.gdnet_replay, replay.make_grasp_transition(
             pick(close.color, s.color), pick(close.height, s.height), pick(close.action, grasp), r_grasp,
             s2.color, s2.height, over), mask=direct_acting | (acting & on_fused))
         gdnet, vanet, succ_net, gd_buffer, va_buffer, stats, n_updates = self._learn(
-            state, va_buffer, gd_buffer, k_learn)
+            state, va_buffer, gd_buffer, k_learn, flags.train_gdnet)
 
         n_act = acting.sum()
         n_view, n_direct = viewing.sum(), direct_acting.sum()
@@ -359,9 +390,31 @@ class VagsStage:
                                   iteration=state.iteration + 1, attempts=attempts)
         return new_state, metrics
 
-    def _run_impl(self, state: VagsTrainState, n: int, fused_to_replay: jax.Array):
-        # The flag is traced, so that stage 3 "all" and "direct" are one compiled program.
-        return jax.lax.scan(lambda st, _: self._iteration(st, fused_to_replay), state, None, length=n)
+    def _run_impl(self, state: VagsTrainState, n: int, flags: "StageFlags"):
+        # The flags are traced, so that stages 2 and 3 (and stage 3's "all", "direct" and
+        # "frozen") are one compiled program.
+        return jax.lax.scan(lambda st, _: self._iteration(st, flags), state, None, length=n)
+
+    @property
+    def flags(self) -> "StageFlags":
+        """This stage's traced switches (``StageFlags``)."""
+        return StageFlags(stage3=jnp.asarray(self.which == 3), train_gdnet=jnp.asarray(self.train_gdnet),
+                          fused_to_replay=jnp.asarray(self.fused_to_replay))
+
+    def program_key(self):
+        """What this stage's chunk program depends on: stages 2 and 3 of one config with equal
+        worlds, objects and updates (``Stage`` but its name and iterations) have the same key,
+        and ``use_program_of`` lets one reuse the other's compiled chunks."""
+        iters = {f"stage{n}.iterations": 1 for n in (1, 2, 3)}
+        return (self.nbv, replace(self.cfg, **iters, **{"nbv.iterations": 1, "vpg.iterations": 1}),
+                tuple((f.name, getattr(self.stage, f.name)) for f in dataclasses.fields(self.stage)
+                      if f.name not in ("name", "iterations")))
+
+    def use_program_of(self, other: "VagsStage") -> None:
+        """Run this stage's chunks with ``other``'s jitted program (one compile for both)."""
+        if other.program_key() != self.program_key():
+            raise ValueError("use_program_of: the two stages build different programs (program_key differs)")
+        self._run_jit, self._greedy_jit = other._run_jit, other._greedy_jit
 
     # ------------------------------------------------------------------ public
 
@@ -371,7 +424,7 @@ class VagsStage:
         if not isinstance(n, int) or n < 1:
             raise ValueError(f"run: n must be a positive int, got {n!r}")
         self.env.prepare(state.env.n_worlds)
-        return self._run_jit(_distinct_buffers(state), n, jnp.asarray(self.fused_to_replay))
+        return self._run_jit(_distinct_buffers(state), n, self.flags)
 
 
 def training_config(cfg: Config) -> Config:
@@ -401,5 +454,5 @@ def _distinct_buffers(tree):
     return jax.tree.unflatten(treedef, out)
 
 
-__all__ = ["VagsTrainState", "VagsStage", "METRICS", "FINITE_METRICS", "view_reward", "calibrated_threshold",
+__all__ = ["VagsTrainState", "VagsStage", "StageFlags", "METRICS", "FINITE_METRICS", "view_reward", "calibrated_threshold",
            "final_threshold", "training_config"]
