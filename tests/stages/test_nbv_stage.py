@@ -37,6 +37,7 @@ def test_nbv_decision_always_moves(tiny_cfg):
     state = SimpleNamespace(env=None, success=None, gd_grasp=jnp.zeros((2, 3), jnp.int32),
                             gd_qmax=jnp.array([1e6, -1e6]), calibration=jnp.zeros((3,)), threshold=jnp.inf)
     q_view = jnp.zeros((2, 4, 4))
-    decision, p_direct, _ = stage._decision(state, q_view, state.gd_grasp, jnp.zeros((2, 2), jnp.int32))
+    decision, p_direct, _ = stage._decision(state, q_view, state.gd_grasp, jnp.zeros((2, 2), jnp.int32),
+                                            stage.flags.stage3)
     assert not np.asarray(decision.direct).any()  # even a huge GDNet Q moves
     assert np.asarray(p_direct).tolist() == [0.0, 0.0]  # no success net consulted
