@@ -50,3 +50,13 @@ def differences(title, columns, rows):
     print("|---:|" + "---:|" * len(columns))
     for r in rows:
         print("| " + " | ".join([str(r[0])] + [f"{x:+.1f}" for x in r[1:]]) + " |")
+
+
+def branches_table(label, rows):
+    """Prints the by-branch table: label names the second column ("networks", "scenes"); rows
+    (seed, label value, VAGS direct, after a move, first attempts, ablation first attempts)
+    tuples of fractions."""
+    print(f"\n| seed | {label} | VAGS: direct grasps % | VAGS: grasps after a move % | VAGS: first attempts % | "
+          "ablation: first attempts % |\n|---:|---|---:|---:|---:|---:|")
+    for s, name, d, m, f, fn in rows:
+        print(f"| {s} | {name} | {100 * d:.1f} | {100 * m:.1f} | {100 * f:.1f} | {100 * fn:.1f} |")

@@ -10,7 +10,7 @@ import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, ".."))
-from report_tables import differences, find, row, table  # noqa: E402
+from report_tables import branches_table, differences, find, row, table  # noqa: E402
 
 SIXTH = os.path.join(HERE, "sixth_run_networks")
 SECOND = os.path.join(HERE, "second_trained_run")
@@ -36,10 +36,7 @@ def main():
                                  o["first_attempt_success"], nv["overall"]["first_attempt_success"]))
     table("The edge scenes, groups 1-10 x 50 rounds", cases)
     differences("Points, VAGS − ablation", ["success", "6-10 success", "6-10 clearing"], gains)
-    print("\n| seed | networks | VAGS: direct grasps % | VAGS: grasps after a move % | VAGS: first attempts % | "
-          "ablation: first attempts % |\n|---:|---|---:|---:|---:|---:|")
-    for s, nets, d, m, f, fn in branches:
-        print(f"| {s} | {nets} | {100 * d:.1f} | {100 * m:.1f} | {100 * f:.1f} | {100 * fn:.1f} |")
+    branches_table("networks", branches)
 
 
 if __name__ == "__main__":

@@ -8,7 +8,7 @@ import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", ".."))
-from report_tables import differences, find, row, table  # noqa: E402
+from report_tables import branches_table, differences, find, row, table  # noqa: E402
 
 DEFAULT = os.path.join(HERE, "..", "..", "default", "sixth_run", "split")
 
@@ -28,10 +28,7 @@ def main():
                                  nv["overall"]["first_attempt_success"]))
     table("The sixth run's networks on the edge and default scenes", cases)
     differences("Points, VAGS − ablation", ["success", "6-10 success", "6-10 clearing"], gains)
-    print("\n| seed | scenes | VAGS: direct grasps % | VAGS: grasps after a move % | VAGS: first attempts % | "
-          "ablation: first attempts % |\n|---:|---|---:|---:|---:|---:|")
-    for s, scenes, d, m, f, fn in branches:
-        print(f"| {s} | {scenes} | {100 * d:.1f} | {100 * m:.1f} | {100 * f:.1f} | {100 * fn:.1f} |")
+    branches_table("scenes", branches)
 
 
 if __name__ == "__main__":
