@@ -19,6 +19,7 @@ Only live states count (objects left, no physics error).
 from __future__ import annotations
 
 import argparse
+import math
 import json
 import os
 import sys
@@ -39,15 +40,26 @@ def load(path: str):
     return {k: v[live] for k, v in rows.items()}, calibration
 
 
+def sign_test_p(only_first: int, only_second: int) -> float:
+    """Exact two-sided McNemar (sign) test on the discordant pairs: the chance of a split at least
+    this uneven if either branch were as likely to be the one that succeeds; 1.0 with no pair."""
+    n, k = only_first + only_second, min(only_first, only_second)
+    if n == 0:
+        return 1.0
+    tail = sum(math.comb(n, i) for i in range(k + 1))
+    return min(1.0, 2 * tail / 2 ** n)
+
+
 def paired_table(rows: dict) -> str:
-    lines = ["| first | second | first % | second % | difference | only first | only second |",
-             "|---|---|---:|---:|---:|---:|---:|"]
+    lines = ["| first | second | first % | second % | difference | only first | only second | p (sign test) |",
+             "|---|---|---:|---:|---:|---:|---:|---:|"]
     for a, b in PAIRS:
         if a not in rows or b not in rows:
             continue
         x, y = rows[a].astype(bool), rows[b].astype(bool)
+        only_x, only_y = int((x & ~y).sum()), int((~x & y).sum())
         lines.append(f"| {a} | {b} | {100 * x.mean():.1f} | {100 * y.mean():.1f} | {100 * (x.mean() - y.mean()):+.1f} "
-                     f"| {int((x & ~y).sum())} | {int((~x & y).sum())} |")
+                     f"| {only_x} | {only_y} | {sign_test_p(only_x, only_y):.3g} |")
     return "\n".join(lines)
 
 

@@ -96,3 +96,14 @@ def test_view_footprint_counts_the_pile_each_close_view_saw():
                 direct_q_gate=np.array([1, 0], bool))
     entry = summarize(rows, has_ggcnn=False)["all"]
     assert entry["seen_view"] == 0.5 and entry["seen_random"] == 0.5 and entry["same_grasp"] == 0.5
+
+
+def test_sign_test_on_hand_counted_splits():
+    """viewpoint_rows.sign_test_p: the exact two-sided McNemar test on discordant pairs."""
+    from viewpoint_rows import sign_test_p
+
+    assert sign_test_p(0, 0) == 1.0  # no discordant pair: no evidence
+    assert sign_test_p(5, 0) == pytest.approx(2 / 32)  # 5 of 5 one way: 2 * 0.5^5
+    assert sign_test_p(1, 1) == 1.0  # an even split (2 * 3/4, capped)
+    assert sign_test_p(10, 2) == pytest.approx(2 * (1 + 12 + 66) / 4096)  # P(X <= 2), X ~ Bin(12, 1/2), twice
+    assert sign_test_p(2, 10) == sign_test_p(10, 2)
