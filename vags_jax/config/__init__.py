@@ -12,7 +12,8 @@
 
 Everything is re-exported here: ``from vags_jax import config as C; C.replace(C.tiny(), ...)``.
 """
-from vags_jax.config.overrides import LEGACY_FIELDS, from_dict, from_saved, parse_overrides, replace, to_dict
+from vags_jax.config.overrides import (LEGACY_FIELDS, from_dict, from_saved, parse_overrides, replace, to_dict,
+                                       without_iterations)
 from vags_jax.config.presets import PRESETS, gpu, gpu_edge, paper, preset, tiny
 from vags_jax.config.sections import (MAX_HEIGHTMAP_PX, MAX_IMAGE_SIDE, MAX_WORLDS,
                                       MAX_DEVICE_BYTES, REPLAY_BYTES_PER_CELL, Workspace,

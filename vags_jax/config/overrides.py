@@ -16,6 +16,12 @@ def replace(cfg, **changes):
     return _replace(cfg, changes, "")
 
 
+def without_iterations(cfg):
+    """``cfg`` with every training stage's iteration count set to 1: what a stage's compiled
+    programs depend on (iteration counts only decide how many chunks run)."""
+    return replace(cfg, **{f"stage{n}.iterations": 1 for n in (1, 2, 3)}, **{"nbv.iterations": 1, "vpg.iterations": 1})
+
+
 def _replace(cfg, changes: dict, prefix: str):
     nested: dict[str, dict] = {}
     flat = {}

@@ -29,8 +29,7 @@ class Programs:
         return self._built[key]
 
     def cfg_key(self, kind: str, cfg):
-        return kind, C.replace(cfg, **{f"stage{n}.iterations": 1 for n in (1, 2, 3)},
-                               **{"nbv.iterations": 1, "vpg.iterations": 1})
+        return kind, C.without_iterations(cfg)
 
     def env(self, cfg) -> VagsEnv:
         return self.get(self.cfg_key("env", cfg), lambda: VagsEnv(cfg))

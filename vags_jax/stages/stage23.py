@@ -56,7 +56,7 @@ from flax import struct
 
 from vags_jax import batching
 from vags_jax.rl import dqn, exploration, replay
-from vags_jax.config import Config, Stage, Vags, replace
+from vags_jax.config import Config, Stage, Vags, replace, without_iterations
 from vags_jax.policies.decision import (Decision, gate_score, gate_threshold, greedy, initial_calibration, plan_attempt,
                                         update_calibration, value_at)
 from vags_jax.env import EnvState, VagsEnv
@@ -405,8 +405,7 @@ class VagsStage:
         """What this stage's chunk program depends on: stages 2 and 3 of one config with equal
         worlds, objects and updates (``Stage`` but its name and iterations) have the same key,
         and ``use_program_of`` lets one reuse the other's compiled chunks."""
-        iters = {f"stage{n}.iterations": 1 for n in (1, 2, 3)}
-        return (self.nbv, replace(self.cfg, **iters, **{"nbv.iterations": 1, "vpg.iterations": 1}),
+        return (self.nbv, without_iterations(self.cfg),
                 tuple((f.name, getattr(self.stage, f.name)) for f in dataclasses.fields(self.stage)
                       if f.name not in ("name", "iterations")))
 
