@@ -26,7 +26,9 @@ each state the physics is branched (the simulator is pure: each branch starts fr
 Reported per subset of states (all; where each gate -- ``success`` with either
 ``vags.view_estimate``, and ``q`` -- would grasp directly / move the camera): the success rate of each branch, and the AUROC with which each
 gate score (the success net's p_direct, GDNet's largest Q) ranks the direct grasp's success,
-and VANet's p_view the success after its move.  Prints a Markdown table; ``--out`` JSON;
+and VANet's p_view the success after its move; also how much of the pile (the global map's
+object cells) the close views of VANet's and of the random cell saw, and how often the two lead
+to the same grasp (``view_footprint``).  Prints a Markdown table; ``--out`` JSON;
 ``--rows`` the per-state values (.npz, one array per branch and score) for analysis.
 """
 from __future__ import annotations
