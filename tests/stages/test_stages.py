@@ -280,6 +280,32 @@ def test_stages_2_and_3_run_one_compiled_program(runs):
         o3.use_program_of(o2)
 
 
+def test_precompile_compiles_the_programs_a_resumed_stage_loads(runs, capsys):
+    """``stages.precompile`` builds stage 2 from placeholder networks and compiles its chunk:
+    every program it needs was already compiled by the fixture's ``train.py --stage stage2``
+    (its inputs restored from checkpoints), so here all are loaded from the session's compile
+    cache and none compiled, i.e. the same programs.  Its command line refuses bad input in one
+    line with exit code 2."""
+    from vags_jax.stages import precompile
+    from vags_jax.stages.programs import Programs
+
+    _, split = runs
+    cfg = checkpoint.load_config(split)
+    report = precompile.precompile(cfg, ["stage2"], chunk=2, programs=Programs(), log=lambda m: None)
+    got = report["stage2"]
+    assert got["iterations_per_chunk"] == 2
+    assert got["compile"]["compiled"] == 0 and got["compile"]["loaded"] >= 3, got
+    for argv, message in ((["--stages", "stage4"], "--stages takes"),
+                          (["--run", split, "--config", "tiny"], "--run takes"),
+                          (["--run", split + "_missing"], "does not exist")):
+        try:
+            code = precompile.main(argv)
+        except SystemExit as e:  # argparse's errors
+            code = e.code
+        err = capsys.readouterr().err
+        assert code == 2 and message in err and err.count("\n") == 1, (argv, err)
+
+
 def test_the_run_keeps_the_gdnets_whose_gate_table_picks_most(runs, tmp_path):
     """``vags.stage3_gdnet_pick="rate"``: the pipeline measured the gate table with stage 3's
     GDNet, with stage 2's, and with stage 2's for direct grasps and stage 3's after a move

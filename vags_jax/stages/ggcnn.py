@@ -266,7 +266,8 @@ def save_ggcnn(run_dir: str, params, info: dict, cfg: Optional[Config] = None, s
     return out
 
 
-def _abstract_params():
+def abstract_params():
+    """Shapes and dtypes (``jax.ShapeDtypeStruct``) of GG-CNN's parameters as a run saves them."""
     return jax.eval_shape(lambda k: GGCNN().init(k, jnp.zeros((1, 12, 12, 1), jnp.float32)), jax.random.PRNGKey(0))
 
 
@@ -293,7 +294,7 @@ def load_ggcnn(run_dir: str, step: Optional[int] = None):
         raise checkpoint.CheckpointError(
             f"the GG-CNN checkpoint of run {run_dir} cannot be used: {why}; delete {out} and train "
             f"it again with {retrain}") from None
-    leaves = jax.tree.leaves(_abstract_params())
+    leaves = jax.tree.leaves(abstract_params())
     saved = arrays.get("params", {})
     problem = None if "params" in arrays else f"it has no part 'params' (parts: {sorted(arrays)})"
     for i, want in enumerate(leaves):
@@ -309,6 +310,6 @@ def load_ggcnn(run_dir: str, step: Optional[int] = None):
         raise checkpoint.CheckpointError(
             f"checkpoint {step} in {out} does not hold GG-CNN's parameters ({problem}); delete {out} and "
             f"train it again with {retrain}")
-    treedef = jax.tree.structure(_abstract_params())
+    treedef = jax.tree.structure(abstract_params())
     params = jax.tree.unflatten(treedef, [jnp.asarray(saved[f"{i:05d}"]) for i in range(len(leaves))])
     return params, step

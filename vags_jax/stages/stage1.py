@@ -206,6 +206,12 @@ class Stage1:
         self.env.prepare(state.env.n_worlds)  # caches built outside the trace
         return self._run_jit(state, n)
 
+    def compile_chunk(self, state: Stage1State, n: int) -> None:
+        """Compiles (never runs) the program ``run(state, n)`` runs: into the compile cache, for a
+        later process (``stages.precompile``)."""
+        self.env.prepare(state.env.n_worlds)
+        self._run_jit.lower(state, n).compile()
+
 
 def checkpoint_layout(cfg: Config) -> dict:
     """Shapes and dtypes (pytrees of ``jax.ShapeDtypeStruct``) of the ``Stage1State`` parts

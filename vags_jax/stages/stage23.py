@@ -425,6 +425,12 @@ class VagsStage:
         self.env.prepare(state.env.n_worlds)
         return self._run_jit(_distinct_buffers(state), n, self.flags)
 
+    def compile_chunk(self, state: VagsTrainState, n: int) -> None:
+        """Compiles (never runs) the program ``run(state, n)`` runs: into the compile cache, for a
+        later process (``stages.precompile``)."""
+        self.env.prepare(state.env.n_worlds)
+        self._run_jit.lower(_distinct_buffers(state), n, self.flags).compile()
+
 
 def training_config(cfg: Config) -> Config:
     """The config stages 2-3 decide under: a run whose gate is "rate" trains stage 3 with the
