@@ -41,15 +41,15 @@ from vags_jax.stages.programs import Programs
 STAGES = ("stage1", "stage2", "stage3")
 
 
-def placeholder_handover(cfg: C.Config, name: str) -> pipeline.Handover:
+def placeholder_handover(cfg: C.Config, name: str, has_ggcnn: bool = False) -> pipeline.Handover:
     """What stage ``name`` starts from, as zeros of the shapes a run's checkpoints restore (device
     arrays, as ``checkpoint.restore`` gives them): the previous stages' learners and threshold,
-    and GG-CNN's parameters when the run uses one."""
+    and GG-CNN's parameters when the run uses one or holds one (``has_ggcnn``)."""
     if name == "stage1":
         return pipeline.Handover()
     dev = lambda tree: jax.tree.map(jnp.asarray, tree)  # noqa: E731
     gg = dev(jax.tree.map(lambda x: jnp.zeros(x.shape, x.dtype), ggcnn_stage.abstract_params())) \
-        if rundir.needs_ggcnn(cfg) else None
+        if rundir.needs_ggcnn(cfg) or has_ggcnn else None
     gd = dev(rundir.learner_target(cfg, "gdnet"))
     if name == "stage2":
         return pipeline.Handover(ggcnn=gg, gdnet=gd)
@@ -58,10 +58,12 @@ def placeholder_handover(cfg: C.Config, name: str) -> pipeline.Handover:
 
 
 def precompile(cfg: C.Config, names: Sequence[str], chunk: Optional[int] = None,
-               programs: Optional[Programs] = None, log: Callable[[str], None] = print) -> dict:
+               programs: Optional[Programs] = None, log: Callable[[str], None] = print,
+               has_ggcnn: bool = False) -> dict:
     """Starts each stage of ``names`` and compiles its chunk program (``chunk`` iterations, else
     ``pipeline.default_chunk`` of the stage's iterations) -> {stage: {"iterations_per_chunk",
-    "wall_s", "compile": {"seconds", "compiled", "loaded"}}}.  Nothing is trained or written but
+    "wall_s", "compile": {"seconds", "compiled", "loaded"}}}.  ``has_ggcnn``: the run holds a
+    GG-CNN its stages carry even where they do not use it.  Nothing is trained or written but
     the compile cache."""
     programs = Programs() if programs is None else programs
     report = {}
@@ -71,7 +73,8 @@ def precompile(cfg: C.Config, names: Sequence[str], chunk: Optional[int] = None,
         t0 = time.time()
         with CompileClock() as clock:
             stage = programs.stage(name, cfg)
-            state = pipeline.stage_fns(name, stage).init(rundir.stage_key(cfg, name), placeholder_handover(cfg, name))
+            start = placeholder_handover(cfg, name, has_ggcnn)
+            state = pipeline.stage_fns(name, stage).init(rundir.stage_key(cfg, name), start)
             stage.compile_chunk(state, n)
         report[name] = {"iterations_per_chunk": n, "wall_s": round(time.time() - t0, 1), "compile": clock.as_dict()}
         log(f"precompile: {name}'s chunk of {n} iterations ready in {report[name]['wall_s']} s "
@@ -116,7 +119,9 @@ def main(argv=None) -> int:
     code = cli.use_compile_cache(prog, args.cache_dir)
     if code is not None:
         return code
-    report = precompile(cfg, names, args.chunk, log=lambda m: print(m, file=sys.stderr, flush=True))
+    has_ggcnn = args.run is not None and rundir.progress(args.run, "ggcnn") > 0
+    report = precompile(cfg, names, args.chunk, log=lambda m: print(m, file=sys.stderr, flush=True),
+                        has_ggcnn=has_ggcnn)
     if args.json:
         print(json.dumps(report))
     return 0
