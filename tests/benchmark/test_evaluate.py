@@ -255,14 +255,13 @@ def test_tiny_evaluation_is_reproducible(tiny_eval):
 
 
 def test_batched_groups_have_the_scenes_of_one_batch_per_group(tiny_eval):
-    """Evaluator.run_groups gives group k's rounds the scenes VagsEnv.step_reset draws for
-    group k alone (the same per-round keys): same objects, sizes, colours and settled poses."""
+    """Evaluator.run_groups gives group k's rounds the scenes Evaluator.run_group draws for
+    group k alone (the same per-round keys): same objects, sizes, colours and settled poses.
+    Both reset through the environment's one compiled reset of 2 worlds, the fixture's."""
     cfg, ev, _, _ = tiny_eval
-    k_reset, _ = jax.random.split(jax.random.fold_in(jax.random.PRNGKey(0), 2))
-    n = jnp.full((2,), 2, jnp.int32)
-    alone = ev._reset(k_reset, n)
-    k_sim, _ = jax.random.split(k_reset)
-    batched = ev._reset_worlds(jax.random.split(k_sim, 2), n, jax.random.PRNGKey(7))
+    k_reset, _ = jax.random.split(jax.random.fold_in(jax.random.PRNGKey(0), 2))  # run_group's, seed 0, k = 2
+    alone = ev._reset(k_reset, jnp.full((2,), 2, jnp.int32))
+    batched, _ = ev.reset_groups(0, (2,), 2, 2)  # run_groups' scenes of group 2, 2 rounds
     for a, b in ((alone.sim.data.qpos, batched.sim.data.qpos), (alone.sim.active, batched.sim.active),
                  (alone.sim.geom_rgb, batched.sim.geom_rgb), (alone.sim.obj_size, batched.sim.obj_size)):
         np.testing.assert_array_equal(np.asarray(a), np.asarray(b))

@@ -8,7 +8,7 @@ from vags_jax.env import VagsEnv, where_worlds
 
 
 # Exact-rendering checks below compare images: the sensor model (on by default) is off here;
-# test_observe_with_depth_noise checks it.
+# test_observe_with_depth_noise checks it.  The scenes come from the stages' reset (``noisy``).
 CLEAN = {"camera.noise.enabled": False}
 
 
@@ -18,12 +18,30 @@ def env(tiny_cfg):
 
 
 @pytest.fixture(scope="module")
-def state(env):
-    return env.reset(jax.random.PRNGKey(1), np.array([1, 2]))
+def noisy(tiny_cfg):
+    """The stages' environment (the sensor model on): its reset of 2 worlds is the suite's."""
+    return VagsEnv(tiny_cfg)
 
 
-def test_reset_puts_objects_in_the_heightmap(env, state):
+@pytest.fixture(scope="module")
+def reset_state(noisy):
+    return noisy.reset(jax.random.PRNGKey(1), np.array([1, 2]))
+
+
+@pytest.fixture(scope="module")
+def state(env, reset_state):
+    """The reset's scenes seen without the sensor model (for the exact-rendering checks)."""
+    color, height = jax.jit(env.observe_global)(reset_state.sim)
+    return reset_state.replace(color=color, height=height)
+
+
+def test_reset_puts_objects_in_the_heightmap(env, noisy, reset_state):
+    """The reset's own heightmaps are the observation of its settled scenes, with its key."""
+    state = reset_state
     assert np.asarray(env.n_remaining(state)).tolist() == [1, 2]
+    _, k_obs = jax.random.split(jax.random.PRNGKey(1))
+    _, height = jax.jit(noisy.observe_global)(state.sim, k_obs)
+    np.testing.assert_allclose(np.asarray(height), np.asarray(state.height), atol=1e-5, rtol=0)
     h = np.asarray(state.height)
     assert h.shape == (2, 32, 32) and (h.max(axis=(1, 2)) > 0.02).all()
     assert state.color.dtype == np.uint8 and state.color.shape == (2, 32, 32, 3)
@@ -62,7 +80,6 @@ def test_rendering_in_world_chunks_is_identical(tiny_cfg, env, state):
     # so heights may differ in the last float bits (4e-6 m seen), colours not at all.
     np.testing.assert_allclose(np.asarray(height), np.asarray(ref_height), atol=1e-5, rtol=0)
     np.testing.assert_array_equal(np.asarray(color), np.asarray(ref_color))
-    np.testing.assert_allclose(np.asarray(height), np.asarray(state.height), atol=1e-5, rtol=0)
 
 
 def test_where_worlds_keeps_shared_leaves():
@@ -97,9 +114,9 @@ def test_observe_matches_colouring_the_whole_image(tiny_cfg, env, state):
     assert np.asarray(ref_color).any(axis=-1).mean() > 0.3  # the comparison is not of black images
 
 
-def test_observe_with_depth_noise(tiny_cfg, state):
+def test_observe_with_depth_noise(noisy, state):
     """camera.noise: observe needs a key, and the noisy heightmaps stay close to the clean ones."""
-    noisy = VagsEnv(C.replace(tiny_cfg, **{"camera.noise.enabled": True}))
+    assert noisy.cfg.camera.noise.enabled
     with pytest.raises(ValueError, match="PRNG key"):
         noisy.observe_global(state.sim)
     color, height = jax.jit(noisy.observe_global)(state.sim, jax.random.PRNGKey(5))

@@ -13,7 +13,7 @@ def _programs(env):
     key, n = jax.random.PRNGKey(0), np.array([1, 2], np.int32)
     state = jax.eval_shape(env.step_reset, key, n)
     pixel, rotation = np.zeros((2, 2), np.int32), np.zeros((2,), np.int32)
-    return (env._reset_jit.lower(key, n).as_text(),
+    return (env._reset_worlds_jit.lower(jax.random.split(key, 2), n, key).as_text(),
             env._grasp_jit.lower(state, pixel, rotation, key).as_text())
 
 

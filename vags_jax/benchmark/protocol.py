@@ -108,8 +108,9 @@ class Evaluator:
         self.cfg = cfg
         self.env = env if env is not None else VagsEnv(cfg)
         self._compiled: dict[Any, Callable] = {}
-        self._reset = jax.jit(self.env.step_reset)  # the same program as VagsEnv.reset
-        self._reset_worlds = jax.jit(self.env.step_reset_worlds)
+        # The environment's one compiled reset (VagsEnv.reset's too): shared with training.
+        self._reset = self.env.reset_unchecked
+        self._reset_worlds = self.env.reset_worlds
         self._start = np.asarray(cfg.camera.global_position, np.float32)
 
     # Long (one reason): the while loop's body and its bookkeeping share one closure.

@@ -112,7 +112,9 @@ class VagsEnv(Observation):
         self.sim = Simulator(cfg, self.scene)
         self._geometry: dict[int, object] = {}
         self.global_pose = np.asarray(camera.global_pose(cfg.camera), np.float32)
-        self._reset_jit = jax.jit(self.step_reset)
+        # Every reset outside a traced program runs this one compiled program (``reset_unchecked``
+        # splits the key first), so that training's resets and the benchmark's share it.
+        self._reset_worlds_jit = jax.jit(self.step_reset_worlds)
         self._grasp_jit = jax.jit(self.step_grasp)
         self._grasp_world_jit = jax.jit(self.step_grasp_world)
         self._observe_jit = jax.jit(self.observe)
@@ -296,11 +298,20 @@ class VagsEnv(Observation):
                 f"n_objects must be a (B,) array of integers in 1..{N} (scene.max_objects = {N}); "
                 f"got {n.tolist()!r}"
             )
-        key = _raw_key(key)
-        self.prepare(n.shape[0])
-        state = self._reset_jit(key, jnp.asarray(n, jnp.int32))
+        state = self.reset_unchecked(_raw_key(key), jnp.asarray(n, jnp.int32))
         check_overflow(state.sim, warn=True)  # warns, naming the worlds; they can be reset again
         return state
+
+    def reset_unchecked(self, key: jax.Array, n_objects: jax.Array) -> EnvState:
+        """``step_reset``'s worlds (the same keys, so the same scenes) from the compiled
+        ``reset_worlds``: key (2,) raw uint32, n_objects (B,) int32, unchecked."""
+        k_sim, k_obs = jax.random.split(key)
+        return self.reset_worlds(jax.random.split(k_sim, n_objects.shape[0]), n_objects, k_obs)
+
+    def reset_worlds(self, keys: jax.Array, n_objects: jax.Array, obs_key: jax.Array) -> EnvState:
+        """``step_reset_worlds`` compiled (unchecked): keys (B, 2), n_objects (B,) int32, obs_key (2,)."""
+        self.prepare(n_objects.shape[0])
+        return self._reset_worlds_jit(keys, n_objects, obs_key)
 
     def grasp(self, state: EnvState, pixel, rotation, key=None):
         """Grasp in every world at heightmap pixel (B, 2) [row, col], rotation index (B,).
