@@ -8,15 +8,16 @@ stage 1 trains, on the spare CPU cores:
 
     python train.py --config paper --stage stage1 --out runs/p --cache-dir DIR &
     python -m vags_jax.stages.precompile --run runs/p --stages stage2 --cache-dir DIR   # beside it
-    wait; python train.py --out runs/p --stage stage2 --cache-dir DIR                 # loads it
-    python train.py --out runs/p --stage stage3 --cache-dir DIR                       # loads it too
+    wait; python train.py --out runs/p --resume --cache-dir DIR     # stages 2 and 3: loads it once
 
 For each stage listed, its start runs for real (first scenes, networks, replays: so the device
 must have room for a second copy of one stage's worlds and replays beside the training) from
 placeholder networks of the config's shapes, and its chunk program is lowered and compiled, never
 run.  A stage started later by ``train.py`` from a run directory (``--stage``, ``--resume``: its
 inputs restored from checkpoints) with the same config, chunk length and cache directory
-reads that program from the cache instead of compiling it.  Stages 2 and 3 of one config run one
+reads that program from the cache instead of compiling it.  Reading it still traces and lowers
+the program (about 3 minutes for the ``paper`` preset on an H100), so one ``--resume`` process
+for stages 2 and 3 pays that once.  Stages 2 and 3 of one config run one
 chunk program (``VagsStage.program_key``), so ``stage2`` compiles stage 3's as well.  Only the
 first chunk's length is compiled (``--chunk``, else ``pipeline.default_chunk``): a stage whose
 iterations are not a multiple of it compiles its last, shorter chunk itself.
