@@ -49,7 +49,7 @@ def placeholder_handover(cfg: C.Config, name: str, has_ggcnn: bool = False) -> p
     if name == "stage1":
         return pipeline.Handover()
     dev = lambda tree: jax.tree.map(jnp.asarray, tree)  # noqa: E731
-    gg = dev(jax.tree.map(lambda x: jnp.zeros(x.shape, x.dtype), ggcnn_stage.abstract_params())) \
+    gg = jax.tree.map(lambda x: jnp.zeros(x.shape, x.dtype), ggcnn_stage.abstract_params()) \
         if rundir.needs_ggcnn(cfg) or has_ggcnn else None
     gd = dev(rundir.learner_target(cfg, "gdnet"))
     if name == "stage2":
