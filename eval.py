@@ -66,6 +66,7 @@ from vags_jax.benchmark import metrics as M  # noqa: E402
 from vags_jax.benchmark import protocol as E  # noqa: E402
 from vags_jax.benchmark import reports, requests, sweep  # noqa: E402
 from vags_jax.benchmark.record_rounds import record_rounds  # noqa: E402
+from vags_jax.policies import rate_gate  # noqa: E402
 
 _T_IMPORTED = time.perf_counter()
 
@@ -160,6 +161,15 @@ def _evaluate(args, plan, t_main: float, argv) -> int:
     process = _startup_seconds(t_main, t_inputs, t_env, new_process=argv is None)
     log("ready in " + ", ".join(f"{k[:-2]} {v} s" for k, v in process.items() if v is not None))
     extra = {"run": args.run, "checkpoint_step": step, "process_s": process}
+    if policy == "vags" and cfg.vags.gate == "rate" and networks is not None and not args.no_viewpoint:
+        table = rate_gate.load_table(args.run, networks.source, networks.gdnet_source,
+                                     networks.close_source, cfg.vags.max_motion_number)
+        if table is not None:
+            extra["rate_gate"] = rate_gate.moves_summary(table, cfg.vags.max_motion_number)
+            g = extra["rate_gate"]
+            log(f"rate gate: moves in bins {g['moving_bins']} of {g['bins']} (lowest p_direct first); its table "
+                f"predicts a motion number of {g['motion_number']:.3f} and {100 * g['success']:.1f} % success"
+                + (f" (vags.max_motion_number={g['max_motion_number']:g})" if g["max_motion_number"] else ""))
     overall = {}
     for seed in plan.seeds:  # one Evaluator: every seed reuses the programs the first one compiled
         if args.seeds is not None:

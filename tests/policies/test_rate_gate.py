@@ -114,3 +114,45 @@ def test_gate_json_round_trip_and_stale_tables(tmp_path):
     # A table written before the objects lost were recorded still loads.
     json.dump({k: v for k, v in json.load(open(path)).items() if not k.startswith("lost_")}, open(path, "w"))
     np.testing.assert_allclose(rate_gate.load(str(tmp_path)), [[0.5, np.inf], [0.35, -0.28]], rtol=1e-6)
+
+
+def _three_bins(move_value=(0.3, 0.01, 0.2)):
+    # Three bins of 10 states: direct 0.4 / 0.7 / 0.5, after a move 0.9 / 0.8 / 0.8 (success
+    # gains 0.5, 0.1, 0.3); every bin moves at first.
+    return rate_gate.GateTable(edges=(0.3, 0.6), states=(10, 10, 10), direct=(0.4, 0.7, 0.5),
+                               moved=(0.9, 0.8, 0.8), extra_seconds=(1.0, 1.0, 1.0), rate=0.1,
+                               move_value=move_value)
+
+
+def test_the_motion_cap_drops_the_moves_that_add_least_success(tmp_path):
+    t = _three_bins()
+    # All three move: 60 motions over 9 + 8 + 8 = 25 grasped objects -> 2.4.  None: 30 / 16.
+    assert rate_gate.motion_number(t, [True, True, True]) == pytest.approx(60 / 25)
+    assert rate_gate.motion_number(t, [False, False, False]) == pytest.approx(30 / 16)
+    assert rate_gate.capped(t, 0.0) is t  # no cap
+    # Cap 2.3: bin 1 (the smallest gain, 0.1) goes: 50 / 24 = 2.083 <= 2.3.
+    assert rate_gate.capped(t, 2.3).move_value == pytest.approx((0.3, 0.0, 0.2))
+    # Cap 2.05: bin 2 (gain 0.3) goes next: 40 / 21 = 1.905.
+    assert rate_gate.capped(t, 2.05).move_value == pytest.approx((0.3, 0.0, 0.0))
+    # The order is by success gain, not move value: here bin 2 has the smallest move value, yet
+    # bin 1 goes.
+    c = rate_gate.capped(_three_bins((0.3, 0.25, 0.05)), 2.3)
+    assert c.move_value == pytest.approx((0.3, 0.0, 0.05))
+    assert rate_gate.capped(t, 1.0).move_value == pytest.approx((0.0, 0.0, 0.0))  # under any choice: none move
+    np.testing.assert_allclose(c.array()[1], [0.3, 0.0, 0.05], rtol=1e-6)
+    # The decision never moves a dropped bin (its value is 0, not > 0).
+    table = jnp.asarray(rate_gate.capped(t, 2.05).array())
+    assert (rate_gate.move_value(table, jnp.asarray([0.1, 0.5, 0.9])) > 0).tolist() == [True, False, False]
+    # Loaded from RUN/gate.json with the cap; the summary eval.py logs and writes.
+    rate_gate.save(str(tmp_path), t, {"networks": "stage3 step 8"})
+    np.testing.assert_allclose(rate_gate.load(str(tmp_path), "stage3 step 8", max_motion_number=2.3)[1],
+                               [0.3, 0.0, 0.2], rtol=1e-6)
+    s = rate_gate.moves_summary(rate_gate.load_table(str(tmp_path), max_motion_number=2.3), 2.3)
+    assert s == {"moving_bins": [0, 2], "bins": 3, "motion_number": round(50 / 24, 4),
+                 "success": round(24 / 30, 4), "max_motion_number": 2.3}
+
+
+@pytest.mark.parametrize("bad", [0.5, -1.0, 11.0, float("nan")])
+def test_the_motion_cap_must_be_off_or_a_motion_number(bad):
+    with pytest.raises(ValueError, match="max_motion_number must be"):
+        C.replace(C.tiny(), **{"vags.max_motion_number": bad})

@@ -503,6 +503,15 @@ def test_the_pipeline_measures_the_rate_gate_table_that_eval_plays(runs, tmp_pat
         assert report["overall"]["viewpoint_rate"] == 1.0
     if all(v < 0 for v in t["move_value"]):
         assert report["overall"]["viewpoint_rate"] == 0.0
+    # The report says where the gate moved and what its table predicted (no cap given).
+    assert report["rate_gate"]["moving_bins"] == [k for k, v in enumerate(t["move_value"]) if v > 0]
+    assert report["rate_gate"]["bins"] == 2 and report["rate_gate"]["max_motion_number"] == 0.0
+    # vags.max_motion_number reaches the decision's table through the run's networks: a cap of 1
+    # (every grasp at its first motion) leaves no bin moving.
+    cfg = checkpoint.load_config(full)
+    capped = pipeline.load_vags(full, C.replace(cfg, **{"vags.max_motion_number": 1.0})).gate_table
+    assert capped is not None and (np.asarray(capped)[1] <= 0).all()
+    np.testing.assert_allclose(pipeline.load_vags(full, cfg).gate_table[1], t["move_value"], rtol=1e-6)
 
 
 def test_the_gate_measure_can_follow_the_moves(runs, programs):

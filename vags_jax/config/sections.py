@@ -705,6 +705,12 @@ class Vags:
       the cells the close view saw (anywhere if it saw none); "map": its argmax anywhere on the
       fused maps, so a move can only add grasps (bench/RESULTS.md, "sixteenth look": worse on the
       sixth run, 86.0-87.8 % against 88.0-88.7 % with "seen").
+    max_motion_number: a cap on the "rate" gate's moves (0: none).  The gate moves in the bins
+      of its table where a move raises the picks per hour; with a cap it drops moving bins,
+      the smallest success gain first, until the motion number its table predicts (motions per
+      grasped object on the table's states) is at most the cap.  The table's prediction ran
+      0.02-0.05 below the benchmark's (bench/RESULTS.md, "Viewpoints that pay, twentieth
+      look").  Read when the table is loaded (eval.py, predict): ``--set`` it on any run.
     train_ggcnn: the pipeline (train.py with no --stage) also trains GG-CNN when local_planner
       is "gdnet", which does not use it (for eval.py --policy ggcnn / ggcnn-close); with "ggcnn"
       it always does.  ``train.py --stage ggcnn --out RUN`` adds one to a run later.
@@ -726,6 +732,7 @@ class Vags:
     stage3_gdnet: str = "all"
     stage3_gdnet_pick: str = "rate"
     close_region: str = "seen"
+    max_motion_number: float = 0.0
     train_ggcnn: bool = False
 
     def __post_init__(self):
@@ -752,6 +759,9 @@ class Vags:
         _within("Vags.vanet_gamma", self.vanet_gamma, 0.0, 1.0, hi_open=True)
         _within("Vags.success_reward", self.success_reward, 0.0, 1e3, lo_open=True)
         _within("Vags.view_bonus", self.view_bonus, 0.0, 1e3)
+        _check(self.max_motion_number == 0.0 or 1.0 <= self.max_motion_number <= 10.0,
+               f"Vags.max_motion_number must be 0 (no cap) or within [1, 10] (a grasp is one motion, a move "
+               f"and a grasp two), got {self.max_motion_number}")
 
 
 # ----------------------------------------------------------------------------- GG-CNN

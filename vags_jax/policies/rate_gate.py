@@ -14,6 +14,10 @@ By default they are reported beside the decision; with ``count_lost`` (``gate_ta
 each one counts as a pick lost, so the gate maximises net picks per second (picks minus objects
 knocked off) and a move must also pay for the objects it knocks off.
 
+``vags.max_motion_number`` caps the moves when the table is loaded (``capped``): moving bins are
+dropped, the smallest success gain first, until the motion number the table predicts is at most
+the cap (the issue's goal is a motion number below 1.35; picks per hour alone may move more).
+
 Stored as ``RUN/gate.json`` (``save`` / ``load``); ``GateTable.array()`` is the (2, K) array the
 jitted decision reads (``move_value``).
 """
@@ -101,6 +105,43 @@ def fit(p, s_d, t_d, s_m, t_m, n_bins: int, lost_direct=None, lost_moved=None, c
                      extra_seconds=f(tm - td), rate=float(rate), move_value=f((gm - gd) - rate * (tm - td)), **lost)
 
 
+def motion_number(table: GateTable, moves) -> float:
+    """The motion number the table predicts when the bins ``moves`` (K,) bool move: motions per
+    grasped object over its states (a direct grasp one motion, a move and a grasp two)."""
+    n, moves = np.asarray(table.states, np.float64), np.asarray(moves, bool)
+    success = np.where(moves, table.moved, table.direct)
+    return float(np.sum(n * (1.0 + moves)) / max(np.sum(n * success), 1e-12))
+
+
+def capped(table: GateTable, max_motion_number: float) -> GateTable:
+    """``table`` with moving bins (move value > 0) dropped, the smallest success gain (moved -
+    direct) first, until ``motion_number`` is at most ``max_motion_number`` (0: no cap); a
+    dropped bin's move value becomes 0 (no move).  Dropping by success gain keeps the most
+    success per motion given up; the rate and the other bins are unchanged."""
+    if max_motion_number <= 0:
+        return table
+    value = np.asarray(table.move_value, np.float64)
+    moves = value > 0
+    gain = np.asarray(table.moved, np.float64) - np.asarray(table.direct, np.float64)
+    for k in sorted(np.flatnonzero(moves), key=lambda i: gain[i]):
+        if motion_number(table, moves) <= max_motion_number:
+            break
+        moves[k] = False
+    return dataclasses.replace(table, move_value=tuple(float(v) for v in np.where(moves, value, 0.0)))
+
+
+def moves_summary(table: GateTable, max_motion_number: float = 0.0) -> dict:
+    """What the decision plays from ``table`` (already ``capped``): the bins it moves in
+    (indices from the lowest p_direct), of how many, the motion number and success the table
+    predicts for that choice, and the cap."""
+    moves = np.asarray(table.move_value) > 0
+    n = np.asarray(table.states, np.float64)
+    success = float(np.sum(n * np.where(moves, table.moved, table.direct)) / np.sum(n))
+    return {"moving_bins": [int(k) for k in np.flatnonzero(moves)], "bins": int(moves.size),
+            "motion_number": round(motion_number(table, moves), 4), "success": round(success, 4),
+            "max_motion_number": float(max_motion_number)}
+
+
 def paired_lost(table: GateTable, p, lost_direct, lost_moved) -> dict:
     """Objects knocked off the table per attempt, direct against after a move on the same states
     (N,): over all states and over those the table moves, each with the paired difference
@@ -143,13 +184,13 @@ def read(run_dir: str) -> Optional[dict]:
         return json.load(f)
 
 
-def load(run_dir: str, networks: Optional[str] = None, gdnet: Optional[str] = None,
-         close_gdnet: Optional[str] = None) -> Optional[np.ndarray]:
-    """RUN/gate.json -> (2, K) float32 (``GateTable.array``); None when the run has none, or
-    when ``networks`` (e.g. "stage3 step 80") is not the networks it was measured on, ``gdnet``
-    not their direct grasps' GDNet (its "gdnet"; tables from before it was kept: ``networks``)
-    or ``close_gdnet`` not the GDNet of their grasps after a move (its "close_gdnet"; tables
-    from before it was kept: "gdnet")."""
+def load_table(run_dir: str, networks: Optional[str] = None, gdnet: Optional[str] = None,
+               close_gdnet: Optional[str] = None, max_motion_number: float = 0.0) -> Optional[GateTable]:
+    """RUN/gate.json -> its ``GateTable``, ``capped`` at ``max_motion_number`` (0: no cap); None
+    when the run has none, or when ``networks`` (e.g. "stage3 step 80") is not the networks it
+    was measured on, ``gdnet`` not their direct grasps' GDNet (its "gdnet"; tables from before
+    it was kept: ``networks``) or ``close_gdnet`` not the GDNet of their grasps after a move (its
+    "close_gdnet"; tables from before it was kept: "gdnet")."""
     d = read(run_dir)
     if d is None:
         return None
@@ -161,7 +202,16 @@ def load(run_dir: str, networks: Optional[str] = None, gdnet: Optional[str] = No
     if close_gdnet is not None and d.get("close_gdnet", kept) != close_gdnet:
         return None
     fields = {f.name for f in dataclasses.fields(GateTable)}
-    return GateTable(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in d.items() if k in fields}).array()
+    table = GateTable(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in d.items() if k in fields})
+    return capped(table, max_motion_number)
+
+
+def load(run_dir: str, networks: Optional[str] = None, gdnet: Optional[str] = None,
+         close_gdnet: Optional[str] = None, max_motion_number: float = 0.0) -> Optional[np.ndarray]:
+    """``load_table``'s table as the (2, K) float32 array the decision reads (``GateTable.array``);
+    None where it gives None."""
+    table = load_table(run_dir, networks, gdnet, close_gdnet, max_motion_number)
+    return None if table is None else table.array()
 
 
 def describe(table: GateTable) -> str:
