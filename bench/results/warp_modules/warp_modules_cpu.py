@@ -3,23 +3,28 @@ the tests' tiny scene under MJX impl "warp": Warp's module registry after buildi
 simulator, after lowering and compiling a settle program, and after running it once.
 Run from the repository root: PYTHONPATH=. python bench/results/warp_modules/warp_modules_cpu.py
 (bench/RESULTS.md, "twentieth look")."""
-import sys, time
-sys.path.insert(0, "tests")
-import jax, numpy as np
-import warp as wp
+import sys
+import time
+
+import jax
 from warp._src import context as wctx
-from grasp_scenarios import tiny_config
-from vags_jax.sim.scene import build_scene
-from vags_jax.sim.simulator import Simulator
+
+sys.path.insert(0, "tests")
+from grasp_scenarios import tiny_config  # noqa: E402
+from vags_jax.sim.scene import build_scene  # noqa: E402
+from vags_jax.sim.simulator import Simulator  # noqa: E402
+
 
 def mods(tag):
+    """Prints and returns the names in Warp's module registry."""
     names = sorted(wctx.user_modules)
     loc = [n for n in names if "locals" in n]
     print(tag, len(names), "modules,", len(loc), "locals", flush=True)
     return set(names)
 
+
 cfg = tiny_config(**{"sim.impl": "warp"})
-m0 = mods("after import")
+mods("after import")
 sim = Simulator(cfg, build_scene(cfg))
 m1 = mods("after Simulator")
 st = sim.empty(2)
@@ -29,7 +34,9 @@ lo = f.lower(st)
 m3 = mods("after lower settle")
 c = lo.compile()
 m4 = mods("after compile")
-t = time.time(); out = c(st); jax.block_until_ready(out); print("ran", time.time() - t, flush=True)
+t = time.time()
+jax.block_until_ready(c(st))
+print("ran", time.time() - t, flush=True)
 m5 = mods("after run")
 print("new at run:", sorted(m5 - m4)[:40])
 print("new at lower:", sorted(m3 - m2)[:40])
