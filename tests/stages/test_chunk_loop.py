@@ -1,5 +1,6 @@
 """``driver.run_chunks`` on a stand-in stage (tiny jitted programs, no physics): when it
-checkpoints (every N chunks, or by time), and that it names a chunk after the first that compiles."""
+checkpoints (every N chunks, or by time), that it names a chunk after the first that compiles,
+and the first chunk whose physics overflowed its buffers."""
 from types import SimpleNamespace
 
 import jax
@@ -21,8 +22,8 @@ class State:
 class Stage:
     """``run(state, n)``: n iterations of +1; ``fresh=True`` builds a new program at every call."""
 
-    def __init__(self, fresh: bool = False):
-        self.fresh, self.calls = fresh, 0
+    def __init__(self, fresh: bool = False, overflow_from: int = 0):
+        self.fresh, self.calls, self.overflow_from = fresh, 0, overflow_from
         self.step = jax.jit(lambda x: x + 1.0)
 
     def run(self, state, n):
@@ -32,6 +33,8 @@ class Stage:
         m = {k: np.zeros(n, np.float32) for k in KEYS}
         m["attempts"][:] = 1
         m["attempts_total"][:] = np.arange(int(state.attempts) + 1, int(done) + 1)
+        if self.overflow_from:  # worlds whose buffers overflowed, from that iteration on (1-based)
+            m["buffer_overflow"] = (np.arange(int(state.attempts) + 1, int(done) + 1) >= self.overflow_from) * 2.0
         return State(x=step(state.x), attempts=jnp.asarray(done, jnp.int32)), m
 
 
@@ -61,3 +64,15 @@ def test_a_chunk_that_compiles_after_the_first_is_named(tmp_path, capsys):
     _, recompiles = _run(tmp_path / "fresh", Stage(fresh=True))
     assert recompiles == [4, 6, 8]  # the chunks ending there built and compiled a new program
     assert "warning: stage1's chunk up to iteration 4 compiled" in capsys.readouterr().err
+
+
+def test_the_first_chunk_whose_buffers_overflowed_is_named_once(tmp_path, capsys):
+    _run(tmp_path / "clean", Stage(overflow_from=0))
+    assert "overflowed" not in capsys.readouterr().err
+    # Iteration 4 on overflows in 2 worlds: the chunk of iterations 3-4 shows 2 world-iterations,
+    # and is the only one named although the chunks after it overflow too.
+    _run(tmp_path / "overflow", Stage(overflow_from=4))
+    err = capsys.readouterr().err
+    assert err.count("overflowed") == 1
+    assert "warning: stage1: contact/constraint buffers overflowed in 2 world-iteration(s) of iterations 3-4" in err
+    assert "sim.contacts_per_world" in err

@@ -289,8 +289,12 @@ class VagsEnv(Observation):
 
     # ------------------------------------------------------------------ public, validated
 
-    def reset(self, key, n_objects) -> EnvState:
-        """New scenes: key (2,) uint32 PRNG key, n_objects (B,) ints in 1..max_objects."""
+    def reset(self, key, n_objects, check_buffers: bool = True) -> EnvState:
+        """New scenes: key (2,) uint32 PRNG key, n_objects (B,) ints in 1..max_objects.
+        check_buffers: read the worlds' buffer-overflow and physics-error flags and warn (this
+        waits for the reset to finish); False returns as soon as the reset is dispatched, for
+        callers that report the flags later (train.py's stages warn from their metrics:
+        ``driver.run_chunks``)."""
         n = np.asarray(n_objects)
         N = self.cfg.scene.max_objects
         if n.ndim != 1 or n.size == 0 or not np.issubdtype(n.dtype, np.integer) or n.min() < 1 or n.max() > N:
@@ -299,7 +303,8 @@ class VagsEnv(Observation):
                 f"got {n.tolist()!r}"
             )
         state = self.reset_unchecked(_raw_key(key), jnp.asarray(n, jnp.int32))
-        check_overflow(state.sim, warn=True)  # warns, naming the worlds; they can be reset again
+        if check_buffers:
+            check_overflow(state.sim, warn=True)  # warns, naming the worlds; they can be reset again
         return state
 
     def reset_unchecked(self, key: jax.Array, n_objects: jax.Array) -> EnvState:

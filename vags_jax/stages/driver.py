@@ -293,7 +293,9 @@ def run_chunks(name: str, stage, state, start_it: int, total: int, out_dir: str,
     saved_it = start_it if start_it > 0 else None
     if stop is not None:
         stop.at(name, saved_it)
-    grasps_done = int(jax.device_get(state.attempts))
+    # A fresh stage has made no attempt; reading its counter would wait for its first scenes.
+    grasps_done = 0 if start_it == 0 else int(jax.device_get(state.attempts))
+    overflow_named = False  # the first chunk whose physics overflowed its buffers is named once
     guard = contextlib.nullcontext if stop is None else stop.protected  # files are never cut by a 2nd Ctrl-C
     while it < total:
         n = min(chunk, total - it)
@@ -317,6 +319,9 @@ def run_chunks(name: str, stage, state, start_it: int, total: int, out_dir: str,
             rows = _write_rows(metrics_path, name, m, it, t0)
             if board is not None:
                 board.rows(rows)
+        if not overflow_named and np.sum(m.get("buffer_overflow", 0)) > 0:
+            overflow_named = True
+            _warn_overflow(name, it, n, int(np.sum(m["buffer_overflow"])), args.quiet)
         diverged = nonfinite(m, it, finite)
         if diverged:
             return good, it, _stop_diverged(diverged, stage, good, it, saved_it, out_dir, guard, args.quiet), \
@@ -378,6 +383,17 @@ def _warn_recompiled(name: str, it: int, clock, recompiles: Optional[list], quie
         print(file=sys.stderr)
     log(f"warning: {name}'s chunk up to iteration {it} compiled {clock.compiled} and loaded {clock.loaded} "
         f"program(s) again ({progress.duration(clock.seconds)}); chunks after the first should reuse the first's")
+
+
+def _warn_overflow(name: str, it: int, n: int, worlds: int, quiet: bool) -> None:
+    """Names the first chunk (iterations it+1..it+n) whose physics overflowed its contact or
+    constraint buffers (``worlds``: world-iterations flagged); later ones are in metrics.jsonl."""
+    if not quiet:
+        print(file=sys.stderr)
+    log(f"warning: {name}: contact/constraint buffers overflowed in {worlds} world-iteration(s) of iterations "
+        f"{it + 1}-{it + n} (metrics.jsonl: buffer_overflow; later chunks are not named): contacts were dropped "
+        "and objects may fall through. Raise sim.contacts_per_world (impl 'jax'; 'warp': naconmax = worlds x "
+        "this), sim.naconmax or sim.njmax (impl 'warp')")
 
 
 def log_timing(out: str, name: str, start_it: int, it: int, wall_s: float, status: str,

@@ -121,11 +121,16 @@ class Stage1:
         return env_state, self.empty_replay(env_state)
 
     def init(self, key: jax.Array, learner: Optional[dqn.TrainState] = None) -> Stage1State:
-        """Fresh worlds, replay and (unless given) a freshly initialised GDNet learner."""
+        """Fresh worlds, replay and (unless given) a freshly initialised GDNet learner.  Returns
+        without waiting for the reset (the first chunk's program can compile meanwhile, beside
+        Warp's first kernel compiles on impl "warp").  Its worlds' buffer-overflow flags stay set
+        into the first iteration's metrics (``buffer_overflow``; but for a world whose round ends
+        at that attempt and resets), which ``driver.run_chunks`` warns about."""
         k_net, k_n, k_env, k_loop = self.init_keys(key)
         if learner is None:
             learner = self.new_learner(k_net)
-        env_state = self.env.reset(k_env, np.asarray(self._n_objects(k_n, self.cfg.stage1.n_worlds)))
+        env_state = self.env.reset(k_env, np.asarray(self._n_objects(k_n, self.cfg.stage1.n_worlds)),
+                                   check_buffers=False)
         return Stage1State(env=env_state, learner=learner, replay=self.empty_replay(env_state), key=k_loop,
                            iteration=jnp.zeros((), jnp.int32), attempts=jnp.zeros((), jnp.int32))
 
