@@ -59,7 +59,6 @@ import sys
 
 from vags_jax import cli
 from vags_jax.parallel import mesh as parallel_mesh
-from vags_jax.stages import driver
 
 PROG = "train.py"
 STAGES = ("ggcnn", "stage1", "stage2", "stage3", "gdnet", "vanet", "alternate", "nbv", "vpg")
@@ -130,7 +129,13 @@ def main(argv=None, programs=None) -> int:
             return cli.fail(PROG, e)
     cli.quiet_third_party(args.verbose)
     error = cli.use_compile_cache(PROG, args.cache_dir)
-    return error if error is not None else driver.train(args, programs)
+    if error is not None:
+        return error
+    # Imported once the flags are read: MuJoCo, MJX and the stages take about 4 s to import, so
+    # --help and a mistyped flag answer in about a second.
+    from vags_jax.stages import driver
+
+    return driver.train(args, programs)
 
 
 if __name__ == "__main__":

@@ -1023,6 +1023,16 @@ def test_command_line_exit_code_2_one_line(script, argv, msg, tmp_path, fake_run
     assert not os.path.exists(tmp_path / "o")
 
 
+def test_train_reads_its_flags_before_importing_the_physics():
+    # A mistyped flag or --help answers without importing MuJoCo, MJX and the stages (about 4 s).
+    code = ("import sys, train; train.parse_args(['--out', 'x']); "
+            "print('mujoco' in sys.modules, 'vags_jax.stages.driver' in sys.modules)")
+    p = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=60,
+                       env={**os.environ, "PYTHONPATH": ROOT + os.pathsep + os.environ.get("PYTHONPATH", "")})
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.split() == ["False", "False"]
+
+
 # ----------------------------------------------------------------------------- stages 2, 3 and VAGS evaluation
 
 @pytest.mark.parametrize("argv,msg", [
