@@ -3,7 +3,7 @@
 
     python bench/viewpoint_goals.py bench/results/viewpoints/default [--policies vags vags-no-viewpoint]
 
-Reads ``DIR/seed<S>/eval_<policy>.json`` and prints a Markdown table: overall success and
+Reads ``DIR/seed<S>/eval_<policy>.json`` (or ``.json.gz``) and prints a Markdown table: overall success and
 clearing, the same pooled over groups 6-10 (successes over attempts, cleared rounds over
 rounds), motion number, viewpoint share, the viewpoint share at one object, picks per hour;
 then, per seed, the first policy's gain over the second on 6-10 objects.
@@ -12,10 +12,22 @@ from __future__ import annotations
 
 import argparse
 import glob
+import gzip
 import json
 import os
 import re
 import sys
+
+
+def read_report(path: str):
+    """An eval.py report at ``path``, or gzipped beside it (``path``.gz, as committed); None if neither."""
+    if os.path.isfile(path):
+        with open(path) as f:
+            return json.load(f)
+    if os.path.isfile(path + ".gz"):
+        with gzip.open(path + ".gz", "rt") as f:
+            return json.load(f)
+    return None
 
 
 def pooled(report: dict, lo: int, hi: int) -> tuple[float, float]:
@@ -44,10 +56,9 @@ def main(argv=None) -> int:
     rows = {}
     for pol in args.policies:
         for s in seeds:
-            f = os.path.join(args.dir, f"seed{s}", f"eval_{pol}.json")
-            if os.path.isfile(f):
-                with open(f) as fh:
-                    rows[pol, s] = row(json.load(fh))
+            report = read_report(os.path.join(args.dir, f"seed{s}", f"eval_{pol}.json"))
+            if report is not None:
+                rows[pol, s] = row(report)
     if not rows:
         print(f"no reports under {args.dir}/seed*/ for {args.policies}", file=sys.stderr)
         return 2

@@ -1,0 +1,39 @@
+"""bench/viewpoint_margins.py and bench/viewpoint_goals.py's report reading, on hand-made reports."""
+import gzip
+import json
+import os
+import sys
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "bench"))
+import viewpoint_margins  # noqa: E402
+
+
+def _report(success, g6_10):
+    # Groups 1 and 6 only: group 6's successes / attempts give the 6-10 pooled success.
+    groups = [{"n_objects": 1, "attempts": 10, "successes": 10, "clearing_rate": 1.0, "rounds": 10},
+              {"n_objects": 6, "attempts": 100, "successes": g6_10, "clearing_rate": 0.5, "rounds": 10}]
+    return {"overall": {"grasp_success_rate": success, "motion_number": 1.2}, "groups_metrics": groups}
+
+
+def _write(path, report, gz):
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    with (gzip.open(path + ".gz", "wt") if gz else open(path, "w")) as f:
+        json.dump(report, f)
+
+
+def test_margins_per_seed_and_their_correlation_with_the_ablation(tmp_path, capsys):
+    # Three seeds: ablation 0.80 / 0.85 / 0.90 with 6-10 successes 70 / 80 / 90 of 100; VAGS's
+    # 6-10 successes 80 / 85 / 91: margins +10, +5, +1 points, falling as the ablation gets
+    # stronger.  Deviations from the means (85; 16/3): -5, 0, 5 and 14/3, -1/3, -13/3, so the
+    # covariance sum is -45, the sums of squares 50 and 122/3: slope -45/50 = -0.90,
+    # correlation -45 / sqrt(50 * 122/3) = -0.998 (printed -1.00).
+    for seed, (a, g_nv, g_va) in zip((11, 12, 13), ((0.80, 70, 80), (0.85, 80, 85), (0.90, 90, 91))):
+        _write(str(tmp_path / "run" / f"seed{seed}" / "eval_vags-no-viewpoint.json"), _report(a, g_nv), gz=True)
+        _write(str(tmp_path / "run" / f"seed{seed}" / "eval_vags.json"), _report(a + 0.03, g_va), gz=seed == 11)
+    _write(str(tmp_path / "lonely" / "seed11" / "eval_vags.json"), _report(0.9, 90), gz=False)  # no ablation: skipped
+    assert viewpoint_margins.main([str(tmp_path / "run"), str(tmp_path / "lonely")]) == 0
+    out = capsys.readouterr().out
+    assert f"| {tmp_path / 'run'} | 3 | 85.0 | 88.0 | 1.200 | +10.0, +5.0, +1.0 |" in out
+    assert "lonely" not in out
+    assert ("3 (folder, seed) pairs: correlation of the 6-10 margin with the ablation's success -1.00; "
+            "slope -0.90") in out
