@@ -11,7 +11,6 @@ benchmark's motion number ran 0.02-0.05 above them (bench/RESULTS.md, "twentieth
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import os
 import sys
@@ -21,11 +20,9 @@ from vags_jax.policies import rate_gate  # noqa: E402
 
 
 def table_of(path: str) -> rate_gate.GateTable:
-    """A gate.json -> its GateTable (the fields the table holds; the meta is dropped)."""
+    """A gate.json file -> its GateTable."""
     with open(path) as f:
-        d = json.load(f)
-    fields = {f.name for f in dataclasses.fields(rate_gate.GateTable)}
-    return rate_gate.GateTable(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in d.items() if k in fields})
+        return rate_gate.from_dict(json.load(f))
 
 
 def rows(paths, caps) -> list[dict]:

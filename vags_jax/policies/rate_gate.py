@@ -201,9 +201,13 @@ def load_table(run_dir: str, networks: Optional[str] = None, gdnet: Optional[str
         return None
     if close_gdnet is not None and d.get("close_gdnet", kept) != close_gdnet:
         return None
+    return capped(from_dict(d), max_motion_number)
+
+
+def from_dict(d: dict) -> GateTable:
+    """A gate.json's contents -> its ``GateTable`` (the table's fields; the meta is dropped)."""
     fields = {f.name for f in dataclasses.fields(GateTable)}
-    table = GateTable(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in d.items() if k in fields})
-    return capped(table, max_motion_number)
+    return GateTable(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in d.items() if k in fields})
 
 
 def load(run_dir: str, networks: Optional[str] = None, gdnet: Optional[str] = None,

@@ -319,9 +319,10 @@ def run_chunks(name: str, stage, state, start_it: int, total: int, out_dir: str,
             rows = _write_rows(metrics_path, name, m, it, t0)
             if board is not None:
                 board.rows(rows)
-        if not overflow_named and np.sum(m.get("buffer_overflow", 0)) > 0:
+        overflowed = int(np.sum(m.get("buffer_overflow", 0)))
+        if overflowed and not overflow_named:
             overflow_named = True
-            _warn_overflow(name, it, n, int(np.sum(m["buffer_overflow"])), args.quiet)
+            _warn_overflow(name, it, n, overflowed, args.quiet)
         diverged = nonfinite(m, it, finite)
         if diverged:
             return good, it, _stop_diverged(diverged, stage, good, it, saved_it, out_dir, guard, args.quiet), \
