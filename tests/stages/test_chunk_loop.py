@@ -76,3 +76,15 @@ def test_the_first_chunk_whose_buffers_overflowed_is_named_once(tmp_path, capsys
     assert err.count("overflowed") == 1
     assert "warning: stage1: contact/constraint buffers overflowed in 2 world-iteration(s) of iterations 3-4" in err
     assert "sim.contacts_per_world" in err
+
+
+def test_on_first_chunk_runs_once_after_the_first_chunk(tmp_path):
+    tmp_path.mkdir(exist_ok=True)
+    calls = []
+    stage = Stage()
+    args = SimpleNamespace(chunk=2, quiet=True, out=str(tmp_path), max_minutes=None, checkpoint_every=None,
+                           checkpoint_minutes=None)
+    state = State(x=jnp.zeros(3), attempts=jnp.zeros((), jnp.int32))
+    driver.run_chunks("stage1", stage, state, 0, 8, str(tmp_path), args, None,
+                      on_first_chunk=lambda: calls.append(stage.calls))
+    assert calls == [1]  # once, when the first of the four chunks had run

@@ -27,7 +27,7 @@ from vags_jax import cli
 from vags_jax.compile_cache import CompileClock
 from vags_jax.ggcnn import data as ggcnn_data
 from vags_jax.policies import rate_gate
-from vags_jax.stages import checkpoint, gate_measure, interrupts, pipeline, progress, requests, run_lock, rundir, stage23
+from vags_jax.stages import checkpoint, compile_ahead, gate_measure, interrupts, pipeline, progress, requests, run_lock, rundir, stage23
 from vags_jax.stages import ggcnn as ggcnn_stage
 from vags_jax.stages import vpg as vpg_stage
 from vags_jax.stages.programs import Programs
@@ -268,7 +268,7 @@ def _write_rows(path: str, name: str, m: dict, first: int, t0: float) -> list:
 
 def run_chunks(name: str, stage, state, start_it: int, total: int, out_dir: str, args, deadline,
                finite=FINITE_METRICS, loss_key: str = "loss", on_save=None, stop=None, board=None,
-               recompiles: Optional[list] = None):
+               recompiles: Optional[list] = None, on_first_chunk: Optional[Callable[[], None]] = None):
     """Advances a stage's state chunk by chunk from ``start_it`` to ``total`` iterations,
     logging every iteration to ``out_dir``/metrics.jsonl (with ``"stage": name``), checkpointing
     into ``out_dir`` (every ``args.checkpoint_every`` chunks, or else at the first chunk boundary
@@ -281,7 +281,8 @@ def run_chunks(name: str, stage, state, start_it: int, total: int, out_dir: str,
     (``progress.Board``) receives every metrics row.  The first chunk says when it compiles and
     how long that took; the progress line's ETA counts the chunks' time without compiling.  A
     later chunk that compiles anything (or loads it from the compile cache) is a recompilation:
-    a warning line, and its iteration appended to ``recompiles``."""
+    a warning line, and its iteration appended to ``recompiles``.  ``on_first_chunk()`` runs once
+    the first chunk has run (its compiling over)."""
     metrics_path = os.path.join(out_dir, "metrics.jsonl")
     _trim_metrics(metrics_path, start_it)
     chunk = args.chunk or pipeline.default_chunk(total)
@@ -329,6 +330,8 @@ def run_chunks(name: str, stage, state, start_it: int, total: int, out_dir: str,
                 grasps_done, None
         it += n
         n_chunks += 1
+        if n_chunks == 1 and on_first_chunk is not None:
+            on_first_chunk()
         grasps_done = int(m["attempts_total"][-1])
         recent = (recent + list(np.asarray(m["success_rate"])))[-max(10, chunk):]
         if not args.quiet:
@@ -398,11 +401,11 @@ def _warn_overflow(name: str, it: int, n: int, worlds: int, quiet: bool) -> None
 
 
 def log_timing(out: str, name: str, start_it: int, it: int, wall_s: float, status: str,
-               compiles: Optional[dict] = None) -> None:
+               compiles: Optional[dict] = None, **extra) -> None:
     """Appends one stage segment's wall-clock to ``out``/timings.jsonl; ``compiles``: what the
-    segment compiled (``CompileClock.as_dict()`` and ``recompiled_chunks``)."""
+    segment compiled (``CompileClock.as_dict()`` and ``recompiled_chunks``); ``extra``: more fields."""
     row = {"stage": name, "from": start_it, "to": it, "wall_s": round(wall_s, 1), "status": status,
-           "time": time.strftime("%Y-%m-%dT%H:%M:%S")}
+           "time": time.strftime("%Y-%m-%dT%H:%M:%S"), **extra}
     if compiles is not None:
         row["compile"] = compiles
     with open(os.path.join(out, "timings.jsonl"), "a") as f:
@@ -467,16 +470,17 @@ def _restore_target(fns: pipeline.StageFns, cfg, name: str, gg):
 
 
 def run_stage(cfg, args, name: str, done: int, h: pipeline.Handover, deadline, programs: Programs, arrays=None,
-              stop=None, board=None):
+              stop=None, board=None, on_first_chunk=None):
     """Stage ``name`` from its start (``h``, the previous stages' output) or from its checkpoint
     ``done`` (``arrays``: stage 1's, read and checked by ``requests``), trained to its
     iterations or to a stop request (``stop``) -> (summary dict, Handover after it), or (exit
-    code, None).  A second Ctrl-C (KeyboardInterrupt) is logged in timings.jsonl and re-raised."""
+    code, None).  A second Ctrl-C (KeyboardInterrupt) is logged in timings.jsonl and re-raised.
+    ``on_first_chunk()``: run once the stage's first chunk has run (``run_chunks``)."""
     with CompileClock() as clock:
-        return _run_stage(cfg, args, name, done, h, deadline, programs, arrays, stop, board, clock)
+        return _run_stage(cfg, args, name, done, h, deadline, programs, arrays, stop, board, clock, on_first_chunk)
 
 
-def _run_stage(cfg, args, name, done, h, deadline, programs, arrays, stop, board, clock):
+def _run_stage(cfg, args, name, done, h, deadline, programs, arrays, stop, board, clock, on_first_chunk=None):
     t0 = time.time()
     recompiles: list = []
     compiles = lambda: {**clock.as_dict(), "recompiled_chunks": recompiles}  # noqa: E731
@@ -515,7 +519,7 @@ def _run_stage(cfg, args, name, done, h, deadline, programs, arrays, stop, board
     try:
         state, it, status, grasps, recent = run_chunks(name, fns.program, state, done, st.iterations, out_dir,
                                                        args, deadline, finite, loss_key, on_save, stop, board,
-                                                       recompiles)
+                                                       recompiles, on_first_chunk)
     except KeyboardInterrupt:
         log_timing(args.out, name, done, stop.saved if stop and stop.saved else done, time.time() - t0, "abandoned",
                    compiles())
@@ -605,6 +609,34 @@ def _pipeline_locked(args, only, plan, programs: Programs, stop, board) -> int:
     deadline = None if args.max_minutes is None else t0 + 60 * args.max_minutes
     summaries, h = [], pipeline.Handover()
     names = rundir.ORDER if only is None else (only,)
+    ahead = _compile_ahead(args, cfg, only)
+    try:
+        return _pipeline_stages(args, only, plan, programs, stop, board, cfg, t0, deadline, summaries, h, names, ahead)
+    finally:
+        if ahead is not None:
+            ahead.close()
+
+
+def _compile_ahead(args, cfg, only) -> Optional[compile_ahead.CompileAhead]:
+    """The second process that compiles stage 2's programs while stage 1 trains
+    (``stages.compile_ahead``), when ``--compile-ahead`` and this run call for one: the whole
+    pipeline, stage 1 still to train here and stage 2 not begun.  Says why not, unless off."""
+    mode = getattr(args, "compile_ahead", "off")
+    if (only is not None or mode == "off" or cfg.parallel.devices > 1 or not cfg.stage2.iterations
+            or rundir.progress(args.out, "stage1") >= rundir.total(cfg, "stage1")
+            or rundir.progress(args.out, "stage2") > 0):
+        return None
+    why = compile_ahead.why_not(mode, args.cache_dir, jax.default_backend())
+    if why is not None:
+        if mode == "on":
+            log(f"compile ahead: not started: {why}")
+        return None
+    argv = compile_ahead.command(args.out, compile_ahead.cache_root(args.cache_dir), args.chunk)
+    return compile_ahead.CompileAhead(args.out, argv, log=log)
+
+
+def _pipeline_stages(args, only, plan, programs, stop, board, cfg, t0, deadline, summaries, h, names, ahead) -> int:
+    """The stages of ``_pipeline_locked`` in order, then the gate's table and the closing summary."""
     for name in names:
         done, want = rundir.progress(args.out, name), rundir.total(cfg, name)
         if done >= want:
@@ -630,7 +662,13 @@ def _pipeline_locked(args, only, plan, programs: Programs, stop, board) -> int:
             except ValueError as e:
                 return fail(e)
             arrays, plan.stage1_arrays = (plan.stage1_arrays, None) if name == "stage1" else (None, plan.stage1_arrays)
-            summary, h = run_stage(cfg, args, name, done, h, deadline, programs, arrays, stop, board)
+            if name == "stage2" and ahead is not None:
+                got = ahead.finish()
+                log_timing(args.out, "compile_ahead", 0, 1 if got["status"] == "done" else 0, got.get("wall_s", 0.0),
+                           got["status"], (got.get("report") or {}).get("stage2", {}).get("compile"),
+                           waited_s=got.get("waited_s", 0.0))
+            first = ahead.start if name == "stage1" and ahead is not None else None
+            summary, h = run_stage(cfg, args, name, done, h, deadline, programs, arrays, stop, board, first)
             if isinstance(summary, int):
                 return summary
             if stop.requested and summary["iterations"] < want:

@@ -1,0 +1,129 @@
+"""Stage 2's programs compiled in a second process while stage 1 trains (``train.py
+--compile-ahead``).
+
+On a machine whose compile cache is empty, the whole pipeline compiles stage 2's chunk program
+(which stage 3 shares) only when stage 2 starts, with the accelerator idle meanwhile.  Stage 1
+is bound by the accelerator and leaves the host's cores mostly free, so once its first chunk
+has run (Warp's kernels then sit in the on-disk cache, and stage 1's own compiling is over) a
+child process, ``python -m vags_jax.stages.precompile --run RUN --stages stage2``, builds stage
+2's start and chunk program into the same compile cache.  Stage 2 then loads them instead of
+compiling.  The child runs stage 2's start for real, so the device needs room for a second copy
+of stage 2's worlds and replays beside stage 1; the child allocates on demand
+(``XLA_PYTHON_CLIENT_PREALLOCATE=false``).  Whatever happens to the child, the pipeline goes on:
+if it fails, stage 2 compiles its own programs as without it (one warning line naming the
+child's log, ``RUN/compile_ahead.log``).
+"""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import time
+from typing import Callable, List, Optional
+
+import jax
+
+from vags_jax import compile_cache
+
+MODES = ("auto", "on", "off")
+LOG_FILE = "compile_ahead.log"
+
+
+def command(run_dir: str, cache_root: str, chunk: Optional[int]) -> List[str]:
+    """The child's command line: stage 2's start and chunk program of ``run_dir``'s config into
+    the cache rooted at ``cache_root``; ``chunk``: train.py's --chunk, if given."""
+    argv = [sys.executable, "-m", "vags_jax.stages.precompile", "--run", run_dir, "--stages", "stage2",
+            "--cache-dir", cache_root, "--json"]
+    return argv + (["--chunk", str(chunk)] if chunk else [])
+
+
+def cache_root(flag: Optional[str]) -> Optional[str]:
+    """The cache directory this process compiles into (``compile_cache``'s layout, ``<root>/jax``)
+    -> its root for the child's --cache-dir, or None when there is no cache to share (it is
+    off, or the caller pointed JAX's own setting elsewhere)."""
+    active = jax.config.jax_compilation_cache_dir
+    root = compile_cache.resolve(flag)
+    if not active or root is None or os.path.abspath(active) != os.path.join(root, "jax"):
+        return None
+    return root
+
+
+def why_not(mode: str, flag: Optional[str], platform: str) -> Optional[str]:
+    """None when stage 2 should compile ahead under ``mode`` (``MODES``), else why not, for the
+    log: "auto" compiles ahead on an accelerator only (on a CPU the child would take the cores
+    stage 1 trains on); both need the compile cache the child writes into."""
+    if mode == "off":
+        return "off"
+    if cache_root(flag) is None:
+        return "the compile cache is off (--cache-dir off), and stage 2 could not load what a second process compiled"
+    if mode == "auto" and platform == "cpu":
+        return "on a CPU stage 1 needs the cores (--compile-ahead on forces it)"
+    return None
+
+
+class CompileAhead:
+    """The child process of stage 2's compiling (module docstring).  ``start()`` launches it
+    (once; later calls do nothing), ``finish()`` waits for it and says how it went (-> its
+    report: wall time and, when it printed one, ``precompile``'s JSON report), ``close()`` ends
+    it if it still runs (on an error or a stop request).  ``argv`` replaces the command (tests)."""
+
+    def __init__(self, run_dir: str, argv: List[str], log: Callable[[str], None] = print):
+        self.run_dir, self.argv, self.log = run_dir, argv, log
+        self.proc: Optional[subprocess.Popen] = None
+        self.t0 = 0.0
+        self.log_path = os.path.join(run_dir, LOG_FILE)
+
+    def start(self) -> None:
+        if self.proc is not None:
+            return
+        env = {**os.environ, "XLA_PYTHON_CLIENT_PREALLOCATE": "false"}
+        self.t0 = time.time()
+        with open(self.log_path, "w") as out:
+            # Its own session: a Ctrl-C at the terminal reaches train.py only, which ends the child (close).
+            self.proc = subprocess.Popen(self.argv, stdout=out, stderr=subprocess.STDOUT, env=env,
+                                         start_new_session=True)
+        self.log(f"compile ahead: stage 2's programs compiling in a second process (pid {self.proc.pid}, "
+                 f"log {self.log_path}) while stage 1 trains")
+
+    def finish(self) -> dict:
+        """Waits for the child (if started) -> {"wall_s", "waited_s", "status", "report"?}."""
+        if self.proc is None:
+            return {"status": "not started"}
+        tw = time.time()
+        if self.proc.poll() is None:
+            self.log("compile ahead: waiting for the second process to finish stage 2's programs ...")
+        rc = self.proc.wait()
+        got = {"wall_s": round(time.time() - self.t0, 1), "waited_s": round(time.time() - tw, 1),
+               "status": "done" if rc == 0 else f"exit code {rc}"}
+        report = _last_json_line(self.log_path)
+        if report is not None:
+            got["report"] = report
+        if rc == 0:
+            self.log(f"compile ahead: stage 2's programs ready after {got['wall_s']} s "
+                     f"(waited {got['waited_s']} s for them)")
+        else:
+            self.log(f"warning: compile ahead: the second process ended with exit code {rc} (see "
+                     f"{self.log_path}); stage 2 compiles its own programs")
+        return got
+
+    def close(self) -> None:
+        if self.proc is not None and self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
+
+
+def _last_json_line(path: str) -> Optional[dict]:
+    try:
+        with open(path) as f:
+            lines = [ln for ln in f.read().splitlines() if ln.startswith("{")]
+        return json.loads(lines[-1]) if lines else None
+    except (OSError, ValueError):
+        return None
+
+
+__all__ = ["MODES", "LOG_FILE", "command", "cache_root", "why_not", "CompileAhead"]
