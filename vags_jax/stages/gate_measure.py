@@ -1,6 +1,7 @@
 """Measure the "rate" gate's table on a trained run (``vags_jax.policies.rate_gate``):
 
     python -m vags_jax.stages.gate_measure --run runs/gpu        # writes runs/gpu/gate.json
+    python -m vags_jax.stages.gate_measure --run runs/gpu --refit --bins 16   # the same states, finer bins
     python eval.py --run runs/gpu --set vags.gate=rate
 
 Why: the "success" gate's estimates are checked during stages 2-3 only where the gate chose
@@ -27,6 +28,7 @@ Shapes: B = ``worlds``.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
 import sys
 import time
@@ -235,6 +237,28 @@ def measure_into(run_dir: str, log=print, programs=None, **kw):
     return save_all(run_dir, table, meta, states), table, meta
 
 
+def refit(run_dir: str, bins: int):
+    """RUN/gate.json fitted again from the states it was measured on (RUN/gate_states.npz, no
+    simulation) over ``bins`` quantile bins, keeping its networks and other settings -> (GateTable,
+    meta, states), for ``save_all``.  ValueError when the run has no table or no saved states."""
+    d = rate_gate.read(run_dir)
+    path = os.path.join(run_dir, STATES_FILE)
+    if d is None or not os.path.isfile(path):
+        raise ValueError(f"{run_dir} has no measured gate table ({rate_gate.GATE_FILE} and {STATES_FILE}) to fit "
+                         f"again; measure one first: {PROG} --run {run_dir}")
+    with np.load(path) as f:
+        states = {k: f[k] for k in f.files}
+    old = rate_gate.from_dict(d)
+    table = rate_gate.fit(states["p_direct"], states["direct_success"], states["direct_seconds"],
+                          states["moved_success"], states["moved_seconds"], bins, lost_direct=states["direct_lost"],
+                          lost_moved=states["moved_lost"], count_lost=old.count_lost)
+    fields = {f.name for f in dataclasses.fields(rate_gate.GateTable)}
+    meta = {k: v for k, v in d.items() if k not in fields}
+    meta["lost"] = rate_gate.paired_lost(table, states["p_direct"], states["direct_lost"], states["moved_lost"])
+    meta["refit"] = {"bins": bins, "from_bins": len(old.states)}
+    return table, meta, states
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(prog=PROG, description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--run", required=True, help="a train.py run with stage 2 or 3 networks")
@@ -255,7 +279,15 @@ def main(argv=None) -> int:
                    "(a diagnostic of rounds that always move; needs --out)")
     p.add_argument("--out", default=None, help="write gate.json and gate_states.npz into this directory instead "
                    "of the run's (the run's table is left as it is)")
+    p.add_argument("--refit", action="store_true",
+                   help="no simulation: fit the run's table again from the states it was measured on "
+                   "(RUN/gate_states.npz), over --bins bins, keeping its networks (seconds, not minutes)")
     args = p.parse_args(argv)
+    if args.refit and (args.bins is None or any(getattr(args, n) is not None for n in ("worlds", "steps", "seed",
+                                                                                      "count_lost", "gdnet"))
+                       or args.follow != "direct"):
+        print(f"{PROG}: --refit fits the measured states again: it takes --bins (and --out) only", file=sys.stderr)
+        return 2
     if args.follow == "moved" and args.out is None:
         print(f"{PROG}: --follow moved measures a diagnostic, not the gate's table: give --out DIR for it "
               f"(RUN/gate.json is left as it is)", file=sys.stderr)
@@ -267,7 +299,9 @@ def main(argv=None) -> int:
     kw = dict(log=lambda m: print(m, file=sys.stderr, flush=True), worlds=args.worlds, steps=args.steps,
               bins=args.bins, seed=args.seed, count_lost=args.count_lost, follow=args.follow)
     try:
-        if args.gdnet is None:
+        if args.refit:
+            table, meta, states = refit(args.run, args.bins)
+        elif args.gdnet is None:
             table, meta, states = measure_picked(args.run, **kw)
         else:
             table, meta, states = measure(args.run, gdnet=args.gdnet, **kw)
