@@ -70,10 +70,10 @@ def stage_fns(name: str, program) -> StageFns:
         return StageFns(init=lambda key, h: program.init(key, h.gdnet, h.ggcnn), run=program.run,
                         output=lambda s, h: h, program=program)
     if name == "stage2":
-        return StageFns(init=lambda key, h: program.init(key, h.gdnet, h.ggcnn), run=program.run,
+        return StageFns(init=lambda key, h, **kw: program.init(key, h.gdnet, h.ggcnn, **kw), run=program.run,
                         output=lambda s, h: h.replace(gdnet=s.gdnet, vanet=s.vanet, success=s.success,
                                                       threshold=s.threshold), program=program)
-    return StageFns(init=lambda key, h: program.init(key, h.gdnet, h.ggcnn, h.vanet, h.threshold, h.success),
+    return StageFns(init=lambda key, h, **kw: program.init(key, h.gdnet, h.ggcnn, h.vanet, h.threshold, h.success, **kw),
                     run=program.run,
                     output=lambda s, h: h.replace(gdnet=s.gdnet, vanet=s.vanet, success=s.success,
                                                   threshold=final_threshold(s, program.cfg.vags)),

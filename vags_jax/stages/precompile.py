@@ -10,10 +10,10 @@ stage 1 trains, on the spare CPU cores:
     python -m vags_jax.stages.precompile --run runs/p --stages stage2 --cache-dir DIR   # beside it
     wait; python train.py --out runs/p --resume --cache-dir DIR     # stages 2 and 3: loads it once
 
-For each stage listed, its start runs for real (first scenes, networks, replays: so the device
-must have room for a second copy of one stage's worlds and replays beside the training) from
-placeholder networks of the config's shapes, and its chunk program is lowered and compiled, never
-run.  A stage started later by ``train.py`` from a run directory (``--stage``, ``--resume``: its
+For each stage listed, its start runs for real (first scenes and networks: so the device must
+have room for a second copy of one stage's worlds beside the training; stage 2's and 3's
+replays, the largest arrays, are only shapes) from placeholder networks of the config's shapes,
+and its chunk program is lowered and compiled, never run.  A stage started later by ``train.py`` from a run directory (``--stage``, ``--resume``: its
 inputs restored from checkpoints) with the same config, chunk length and cache directory
 reads that program from the cache instead of compiling it.  Reading it still traces and lowers
 the program (about 3 minutes for the ``paper`` preset on an H100), so one ``--resume`` process
@@ -75,7 +75,8 @@ def precompile(cfg: C.Config, names: Sequence[str], chunk: Optional[int] = None,
         with CompileClock() as clock:
             stage = programs.stage(name, cfg)
             start = placeholder_handover(cfg, name, has_ggcnn)
-            state = pipeline.stage_fns(name, stage).init(rundir.stage_key(cfg, name), start)
+            kw = {} if name == "stage1" else {"abstract_replays": True}  # never allocated: they only shape the program
+            state = pipeline.stage_fns(name, stage).init(rundir.stage_key(cfg, name), start, **kw)
             stage.compile_chunk(state, n)
         report[name] = {"iterations_per_chunk": n, "wall_s": round(time.time() - t0, 1), "compile": clock.as_dict()}
         log(f"precompile: {name}'s chunk of {n} iterations ready in {report[name]['wall_s']} s "

@@ -218,12 +218,15 @@ class VagsStage:
         return jax.random.randint(key, (n_worlds,), s.min_objects, s.max_objects + 1, jnp.int32)
 
     def init(self, key: jax.Array, gdnet: dqn.TrainState, ggcnn_params, vanet: Optional[dqn.TrainState] = None,
-             threshold=None, success: Optional[dqn.TrainState] = None) -> VagsTrainState:
+             threshold=None, success: Optional[dqn.TrainState] = None,
+             abstract_replays: bool = False) -> VagsTrainState:
         """Fresh worlds and replays.  gdnet: stage 1's learner (stage 2) or stage 2's (stage 3);
         vanet / success: None for fresh ones (stage 2: VANet from scratch, the success net from
         GDNet's variables) or stage 2's; ggcnn_params: {"params"} of GG-CNN; threshold: the "q"
         gate's threshold (stage 3: stage 2's), or None to calibrate it
-        (``calibrated_threshold``) on these first views."""
+        (``calibrated_threshold``) on these first views.  abstract_replays: the two replays as
+        ``jax.ShapeDtypeStruct`` leaves, never allocated: a state only to compile the chunk
+        program with (``compile_chunk``; ``stages.precompile``), which cannot run."""
         cfg = self.cfg
         key = jnp.asarray(key)
         if jnp.issubdtype(key.dtype, jax.dtypes.prng_key):
@@ -239,8 +242,9 @@ class VagsStage:
         if self.nbv:  # always move: no largest Q exceeds +inf
             threshold = jnp.inf
         thr = calibrated_threshold(gd_qmax, cfg.vags) if threshold is None else jnp.asarray(threshold, jnp.float32)
-        va_buffer = replay.init(cfg.replay.capacity, _example_transition(H, 2))
-        gd_buffer = replay.init(cfg.replay.capacity, _example_transition(H, 3))
+        make = jax.eval_shape if abstract_replays else (lambda f: f())
+        va_buffer = make(lambda: replay.init(cfg.replay.capacity, _example_transition(H, 2)))
+        gd_buffer = make(lambda: replay.init(cfg.replay.capacity, _example_transition(H, 3)))
         # Every leaf its own buffer (``run`` donates the state, and a buffer may be donated once).
         return VagsTrainState(env=env_state, gdnet=gdnet, vanet=vanet, success=success, vanet_replay=va_buffer,
                               gdnet_replay=gd_buffer, ggcnn=ggcnn_params, threshold=thr.reshape(()),
