@@ -88,3 +88,34 @@ def test_on_first_chunk_runs_once_after_the_first_chunk(tmp_path):
     driver.run_chunks("stage1", stage, state, 0, 8, str(tmp_path), args, None,
                       on_first_chunk=lambda: calls.append(stage.calls))
     assert calls == [1]  # once, when the first of the four chunks had run
+
+
+def test_the_last_checkpoint_can_be_left_writing_for_the_caller(tmp_path):
+    """With ``deferred``, the stage's last checkpoint comes back as a save still being written
+    (the pipeline starts the next stage meanwhile); the earlier ones are waited for.  Once
+    finished, the step is on disk; a stage stopped early waits for its save."""
+    out = tmp_path / "deferred"
+    out.mkdir()
+    args = SimpleNamespace(chunk=2, quiet=True, out=str(out), max_minutes=None, checkpoint_every=2,
+                           checkpoint_minutes=None)
+    state = State(x=jnp.zeros(3), attempts=jnp.zeros((), jnp.int32))
+    deferred = []
+    final, it, status, _, _ = driver.run_chunks("stage1", Stage(), state, 0, 8, str(out), args, None,
+                                                deferred=deferred)
+    assert (it, status) == (8, "done") and [p.step for p in deferred] == [8]
+    assert 4 in checkpoint.checkpoint_steps(str(out))  # every save before the last was waited for
+    assert deferred[0].finish() >= 0.0 and deferred[0].finish() == 0.0  # once
+    assert checkpoint.checkpoint_steps(str(out)) == [4, 8]
+    restored, _ = checkpoint.restore(str(out), state, 8)
+    assert isinstance(restored.x, jax.Array) and isinstance(restored.attempts, jax.Array)
+    np.testing.assert_array_equal(np.asarray(restored.x), np.asarray(final.x))
+    assert int(restored.attempts) == 8
+    # Out of time after the first chunk: that checkpoint is the stage's end for now, and is waited for.
+    early = tmp_path / "early"
+    early.mkdir()
+    deferred = []
+    _, it, status, _, _ = driver.run_chunks("stage1", Stage(), state, 0, 8, str(early),
+                                            SimpleNamespace(**{**vars(args), "out": str(early)}), 0.0,
+                                            deferred=deferred)
+    assert (it, status, deferred) == (2, "out_of_time", [])
+    assert checkpoint.checkpoint_steps(str(early)) == [2]

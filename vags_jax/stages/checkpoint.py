@@ -25,6 +25,7 @@ import math
 import os
 import re
 import sys
+import time
 from typing import Any, Optional
 
 import jax
@@ -198,17 +199,42 @@ def _parts(state: Any) -> dict[str, Any]:
     return {"state": state}
 
 
-def save(run_dir: str, step: int, state: Any) -> None:
+class PendingSave:
+    """A checkpoint whose arrays have left the device and whose files Orbax is still writing in
+    the background (``save(..., wait=False)``).  ``finish()`` waits for the files (once; later
+    calls return at once) -> the seconds it waited.  Until then the step is not on disk
+    (``checkpoint_steps`` does not list it)."""
+
+    def __init__(self, mngr: ocp.CheckpointManager, step: int):
+        self._mngr, self.step = mngr, step
+
+    def finish(self) -> float:
+        if self._mngr is None:
+            return 0.0
+        t0 = time.time()
+        self._mngr.wait_until_finished()
+        self._mngr.close()
+        self._mngr = None
+        return time.time() - t0
+
+
+def save(run_dir: str, step: int, state: Any, wait: bool = True) -> Optional[PendingSave]:
     """Writes ``state`` (a dataclass / dict of pytrees of arrays) as checkpoint ``step``.
 
     Each top-level field is stored under its name, so one part (e.g. ``learner``) can be
-    restored without building or reading the others (``restore_part``).
+    restored without building or reading the others (``restore_part``).  ``wait=False``
+    returns while Orbax still copies the arrays to host and writes the files: a ``PendingSave``
+    to ``finish()`` before the process ends or the step is read.  Until then the arrays must
+    not be donated (the caller hands copies on; ``driver``).
     """
     tree = {name: _flatten(part) for name, part in _parts(state).items()}
     mngr = _manager(run_dir)
     mngr.save(int(step), args=ocp.args.StandardSave(tree), force=True)
-    mngr.wait_until_finished()
-    mngr.close()
+    pending = PendingSave(mngr, int(step))
+    if wait:
+        pending.finish()
+        return None
+    return pending
 
 
 def _step_dir(run_dir: str, step: int) -> str:

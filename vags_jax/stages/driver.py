@@ -21,6 +21,7 @@ import time
 from typing import Callable, Optional
 
 import jax
+import jax.numpy as jnp
 import numpy as np
 
 from vags_jax import cli
@@ -268,7 +269,8 @@ def _write_rows(path: str, name: str, m: dict, first: int, t0: float) -> list:
 
 def run_chunks(name: str, stage, state, start_it: int, total: int, out_dir: str, args, deadline,
                finite=FINITE_METRICS, loss_key: str = "loss", on_save=None, stop=None, board=None,
-               recompiles: Optional[list] = None, on_first_chunk: Optional[Callable[[], None]] = None):
+               recompiles: Optional[list] = None, on_first_chunk: Optional[Callable[[], None]] = None,
+               deferred: Optional[list] = None):
     """Advances a stage's state chunk by chunk from ``start_it`` to ``total`` iterations,
     logging every iteration to ``out_dir``/metrics.jsonl (with ``"stage": name``), checkpointing
     into ``out_dir`` (every ``args.checkpoint_every`` chunks, or else at the first chunk boundary
@@ -282,7 +284,9 @@ def run_chunks(name: str, stage, state, start_it: int, total: int, out_dir: str,
     how long that took; the progress line's ETA counts the chunks' time without compiling.  A
     later chunk that compiles anything (or loads it from the compile cache) is a recompilation:
     a warning line, and its iteration appended to ``recompiles``.  ``on_first_chunk()`` runs once
-    the first chunk has run (its compiling over)."""
+    the first chunk has run (its compiling over).  ``deferred``: a list the checkpoint at the
+    stage's end is appended to as a ``checkpoint.PendingSave`` still writing (the caller
+    finishes it: the next stage starts meanwhile); without it, every save is waited for."""
     metrics_path = os.path.join(out_dir, "metrics.jsonl")
     _trim_metrics(metrics_path, start_it)
     chunk = args.chunk or pipeline.default_chunk(total)
@@ -341,8 +345,11 @@ def run_chunks(name: str, stage, state, start_it: int, total: int, out_dir: str,
         stopping = stop is not None and stop.requested
         due = n_chunks % every == 0 if every else time.time() - last_save >= save_s
         if due or it >= total or out_of_time or stopping:
+            defer = deferred is not None and it >= total and not (out_of_time or stopping)
             with guard():
-                checkpoint.save(out_dir, it, state)
+                pending = checkpoint.save(out_dir, it, state, wait=not defer)
+                if pending is not None:
+                    deferred.append(pending)
                 saved_it, last_save = it, time.time()
                 if stop is not None:
                     stop.at(name, saved_it)
@@ -470,17 +477,20 @@ def _restore_target(fns: pipeline.StageFns, cfg, name: str, gg):
 
 
 def run_stage(cfg, args, name: str, done: int, h: pipeline.Handover, deadline, programs: Programs, arrays=None,
-              stop=None, board=None, on_first_chunk=None):
+              stop=None, board=None, on_first_chunk=None, deferred=None):
     """Stage ``name`` from its start (``h``, the previous stages' output) or from its checkpoint
     ``done`` (``arrays``: stage 1's, read and checked by ``requests``), trained to its
     iterations or to a stop request (``stop``) -> (summary dict, Handover after it), or (exit
     code, None).  A second Ctrl-C (KeyboardInterrupt) is logged in timings.jsonl and re-raised.
-    ``on_first_chunk()``: run once the stage's first chunk has run (``run_chunks``)."""
+    ``on_first_chunk()``: run once the stage's first chunk has run; ``deferred``: collects the
+    stage's last checkpoint, still being written (both ``run_chunks``)."""
     with CompileClock() as clock:
-        return _run_stage(cfg, args, name, done, h, deadline, programs, arrays, stop, board, clock, on_first_chunk)
+        return _run_stage(cfg, args, name, done, h, deadline, programs, arrays, stop, board, clock, on_first_chunk,
+                          deferred)
 
 
-def _run_stage(cfg, args, name, done, h, deadline, programs, arrays, stop, board, clock, on_first_chunk=None):
+def _run_stage(cfg, args, name, done, h, deadline, programs, arrays, stop, board, clock, on_first_chunk=None,
+               deferred=None):
     t0 = time.time()
     recompiles: list = []
     compiles = lambda: {**clock.as_dict(), "recompiled_chunks": recompiles}  # noqa: E731
@@ -519,7 +529,7 @@ def _run_stage(cfg, args, name, done, h, deadline, programs, arrays, stop, board
     try:
         state, it, status, grasps, recent = run_chunks(name, fns.program, state, done, st.iterations, out_dir,
                                                        args, deadline, finite, loss_key, on_save, stop, board,
-                                                       recompiles, on_first_chunk)
+                                                       recompiles, on_first_chunk, deferred)
     except KeyboardInterrupt:
         log_timing(args.out, name, done, stop.saved if stop and stop.saved else done, time.time() - t0, "abandoned",
                    compiles())
@@ -532,7 +542,10 @@ def _run_stage(cfg, args, name, done, h, deadline, programs, arrays, stop, board
     if name not in ("stage1", "nbv"):  # NBV's is +inf: it always moves
         summary["threshold"] = float(state.threshold)
     summary.update(wall_s=round(time.time() - t0, 1), out=out_dir)
-    return summary, (fns.output(state, h) if it >= st.iterations else h)
+    h = fns.output(state, h) if it >= st.iterations else h
+    if deferred:  # the last checkpoint still reads this state's arrays: the next stage donates copies
+        h = jax.tree.map(lambda x: jnp.array(x, copy=True) if isinstance(x, jax.Array) else x, h)
+    return summary, h
 
 
 def main_stage1(args, programs: Programs, stop, board) -> int:
@@ -610,11 +623,21 @@ def _pipeline_locked(args, only, plan, programs: Programs, stop, board) -> int:
     summaries, h = [], pipeline.Handover()
     names = rundir.ORDER if only is None else (only,)
     ahead = _compile_ahead(args, cfg, only)
+    deferred: list = []  # stages' last checkpoints, written while the next stage starts
     try:
-        return _pipeline_stages(args, only, plan, programs, stop, board, cfg, t0, deadline, summaries, h, names, ahead)
+        return _pipeline_stages(args, only, plan, programs, stop, board, cfg, t0, deadline, summaries, h, names, ahead,
+                                deferred)
     finally:
         if ahead is not None:
             ahead.close()
+        with stop.protected():  # a second Ctrl-C must not cut a checkpoint's files
+            _finish_saves(deferred)
+
+
+def _finish_saves(deferred: list) -> None:
+    """Waits until every deferred checkpoint is on disk."""
+    while deferred:
+        deferred.pop(0).finish()
 
 
 def _compile_ahead(args, cfg, only) -> Optional[compile_ahead.CompileAhead]:
@@ -635,7 +658,8 @@ def _compile_ahead(args, cfg, only) -> Optional[compile_ahead.CompileAhead]:
     return compile_ahead.CompileAhead(args.out, argv, log=log)
 
 
-def _pipeline_stages(args, only, plan, programs, stop, board, cfg, t0, deadline, summaries, h, names, ahead) -> int:
+def _pipeline_stages(args, only, plan, programs, stop, board, cfg, t0, deadline, summaries, h, names, ahead,
+                     deferred) -> int:
     """The stages of ``_pipeline_locked`` in order, then the gate's table and the closing summary."""
     for name in names:
         done, want = rundir.progress(args.out, name), rundir.total(cfg, name)
@@ -668,7 +692,7 @@ def _pipeline_stages(args, only, plan, programs, stop, board, cfg, t0, deadline,
                            got["status"], (got.get("report") or {}).get("stage2", {}).get("compile"),
                            waited_s=got.get("waited_s", 0.0))
             first = ahead.start if name == "stage1" and ahead is not None else None
-            summary, h = run_stage(cfg, args, name, done, h, deadline, programs, arrays, stop, board, first)
+            summary, h = run_stage(cfg, args, name, done, h, deadline, programs, arrays, stop, board, first, deferred)
             if isinstance(summary, int):
                 return summary
             if stop.requested and summary["iterations"] < want:
@@ -676,12 +700,17 @@ def _pipeline_stages(args, only, plan, programs, stop, board, cfg, t0, deadline,
         summaries.append(summary)
         if summary.get("iterations", want) < want:  # stopped by --max-minutes
             break
-    if only in (None, "stage3") and gate_measure.due(args.out, cfg):
+    # Stage 3's last checkpoint may still be writing (``deferred``): whether it finished is known here.
+    stage3_finished = any(x.get("stage") == "stage3" and x.get("iterations", 0) >= rundir.total(cfg, "stage3")
+                          for x in summaries) or None
+    if only in (None, "stage3") and gate_measure.due(args.out, cfg, stage3_finished):
         if deadline is not None and time.time() > deadline:
             print(f"stopped after {args.max_minutes} min before the rate gate's table; --resume measures it",
                   file=sys.stderr)
         else:
             summaries.append(measure_gate(args, cfg, programs))
+    with stop.protected():
+        _finish_saves(deferred)  # the summary reads each stage's progress from its checkpoints
     report_end(args, {"stages": summaries, "progress": run_status(args.out, cfg, only),
                       "wall_s": round(time.time() - t0, 1), "out": args.out}, summaries, cfg, time.time() - t0,
                all(rundir.progress(args.out, n) >= rundir.total(cfg, n) for n in names))

@@ -32,6 +32,7 @@ import dataclasses
 import os
 import sys
 import time
+from typing import Optional
 
 import jax
 import jax.numpy as jnp
@@ -104,10 +105,13 @@ def measure_config(run_cfg):
     return replace(run_cfg, **{"vags.gate": "success", "vags.view_estimate": "vanet"})
 
 
-def due(run_dir: str, cfg) -> bool:
-    """train.py's pipeline measures the table now: ``gate_table.worlds`` > 0, stage 3 finished,
-    and RUN/gate.json missing or measured on other networks."""
-    if cfg.gate_table.worlds == 0 or rundir.progress(run_dir, "stage3") < rundir.total(cfg, "stage3"):
+def due(run_dir: str, cfg, stage3_finished: Optional[bool] = None) -> bool:
+    """train.py's pipeline measures the table now: ``gate_table.worlds`` > 0, stage 3 finished
+    (``stage3_finished``, else as its checkpoints on disk say), and RUN/gate.json missing or
+    measured on other networks."""
+    if stage3_finished is None:
+        stage3_finished = rundir.progress(run_dir, "stage3") >= rundir.total(cfg, "stage3")
+    if cfg.gate_table.worlds == 0 or not stage3_finished:
         return False
     steps = checkpoint.checkpoint_steps(rundir.networks_dir(run_dir, "stage3"))
     return bool(steps) and rate_gate.load(run_dir, rundir.networks_source("stage3", max(steps))) is None
