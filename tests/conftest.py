@@ -101,6 +101,12 @@ TINY_TEST_OVERRIDES = {
 }
 
 
+# Physics whose programs compile about a third faster (boxes only, pyramidal friction cones), as
+# train.py --set strings, for tests whose checks hold whatever the contacts are (VPG's stage).
+# The pipeline, physics and data-parallel tests keep the presets' physics (bench/RESULTS.md, "Test suite").
+FAST_PHYSICS = ['scene.shapes=["box","box","box"]', "sim.cone=pyramidal"]
+
+
 @pytest.fixture(scope="session")
 def tiny_cfg():
     from vags_jax import config as C

@@ -10,9 +10,14 @@ import eval as eval_cli
 import train
 from vags_jax.stages import checkpoint, vpg as vpg_stage
 
-# The tiny preset shrunk as conftest's TINY_TEST_OVERRIDES, for VPG's stage; one iteration per
-# chunk so that 2 + 1 iterations and 3 iterations run the same compiled chunk.
-SETS = ["vpg.n_worlds=2", "vpg.max_objects=2", "vpg.learning_starts=2", "dqn.batch_size=4", "replay.capacity=64"]
+from conftest import FAST_PHYSICS
+
+# The tiny preset shrunk as conftest's TINY_TEST_OVERRIDES, for VPG's stage, on conftest's
+# FAST_PHYSICS (its chunk and eval compile about a third faster; no check here depends on the
+# contacts); one iteration per chunk so that 2 + 1 iterations and 3 iterations run the same
+# compiled chunk.
+SETS = ["vpg.n_worlds=2", "vpg.max_objects=2", "vpg.learning_starts=2", "dqn.batch_size=4", "replay.capacity=64",
+        *FAST_PHYSICS]
 
 
 def _train(out, iterations, programs, resume=False):
