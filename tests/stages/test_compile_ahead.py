@@ -14,7 +14,7 @@ from vags_jax.stages import compile_ahead, driver
 
 def test_why_not_needs_the_shared_cache_and_a_gpu_unless_forced():
     assert compile_ahead.why_not("off", None, "gpu") == "off"
-    assert "compile cache is off" in compile_ahead.why_not("on", "off", "gpu")
+    assert "no compile cache" in compile_ahead.why_not("on", "off", "gpu")
     assert "on a CPU" in compile_ahead.why_not("auto", None, "cpu")
     # The suite's cache (conftest: $VAGS_JAX_CACHE_DIR) is the one this process compiles into.
     assert compile_ahead.cache_root(None) == compile_cache.resolve(None)
@@ -62,6 +62,14 @@ def test_a_failed_child_is_a_warning_and_the_pipeline_goes_on(tmp_path):
     assert got["status"] == "exit code 3" and "report" not in got
     assert lines[-1].startswith("warning: compile ahead: the second process ended with exit code 3")
     assert "stage 2 compiles its own programs" in lines[-1]
+
+
+def test_a_child_that_cannot_start_is_a_warning(tmp_path):
+    lines = []
+    ahead = compile_ahead.CompileAhead(str(tmp_path), [str(tmp_path / "no-such-program")], log=lines.append)
+    ahead.start()
+    assert ahead.proc is None and lines[-1].startswith("warning: compile ahead: could not start")
+    assert ahead.finish() == {"status": "not started"}
 
 
 def test_close_ends_a_child_still_running(tmp_path):

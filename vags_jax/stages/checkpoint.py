@@ -200,8 +200,8 @@ def _parts(state: Any) -> dict[str, Any]:
 
 
 class PendingSave:
-    """A checkpoint whose arrays have left the device and whose files Orbax is still writing in
-    the background (``save(..., wait=False)``).  ``finish()`` waits for the files (once; later
+    """A checkpoint that Orbax is still copying off the device and writing in the background
+    (``save(..., wait=False)``).  ``finish()`` waits for the files (once; later
     calls return at once) -> the seconds it waited.  Until then the step is not on disk
     (``checkpoint_steps`` does not list it)."""
 

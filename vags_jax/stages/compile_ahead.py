@@ -56,7 +56,8 @@ def why_not(mode: str, flag: Optional[str], platform: str) -> Optional[str]:
     if mode == "off":
         return "off"
     if cache_root(flag) is None:
-        return "the compile cache is off (--cache-dir off), and stage 2 could not load what a second process compiled"
+        return ("there is no compile cache of train.py's to share (--cache-dir off, or JAX's cache set elsewhere), "
+                "so stage 2 could not load what a second process compiled")
     if mode == "auto" and platform == "cpu":
         return "on a CPU stage 1 needs the cores (--compile-ahead on forces it)"
     return None
@@ -79,10 +80,15 @@ class CompileAhead:
             return
         env = {**os.environ, "XLA_PYTHON_CLIENT_PREALLOCATE": "false"}
         self.t0 = time.time()
-        with open(self.log_path, "w") as out:
-            # Its own session: a Ctrl-C at the terminal reaches train.py only, which ends the child (close).
-            self.proc = subprocess.Popen(self.argv, stdout=out, stderr=subprocess.STDOUT, env=env,
-                                         start_new_session=True)
+        try:
+            with open(self.log_path, "w") as out:
+                # Its own session: a Ctrl-C at the terminal reaches train.py only, which ends the child (close).
+                self.proc = subprocess.Popen(self.argv, stdout=out, stderr=subprocess.STDOUT, env=env,
+                                             start_new_session=True)
+        except OSError as e:
+            self.log(f"warning: compile ahead: could not start the second process ({e}); stage 2 compiles its "
+                     f"own programs")
+            return
         self.log(f"compile ahead: stage 2's programs compiling in a second process (pid {self.proc.pid}, "
                  f"log {self.log_path}) while stage 1 trains")
 

@@ -28,7 +28,8 @@ from vags_jax import cli
 from vags_jax.compile_cache import CompileClock
 from vags_jax.ggcnn import data as ggcnn_data
 from vags_jax.policies import rate_gate
-from vags_jax.stages import checkpoint, compile_ahead, gate_measure, interrupts, pipeline, progress, requests, run_lock, rundir, stage23
+from vags_jax.stages import (checkpoint, compile_ahead, gate_measure, interrupts, pipeline, progress, requests,
+                              run_lock, rundir, stage23)
 from vags_jax.stages import ggcnn as ggcnn_stage
 from vags_jax.stages import vpg as vpg_stage
 from vags_jax.stages.programs import Programs

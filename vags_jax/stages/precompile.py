@@ -13,14 +13,16 @@ stage 1 trains, on the spare CPU cores:
 For each stage listed, its start runs for real (first scenes and networks: so the device must
 have room for a second copy of one stage's worlds beside the training; stage 2's and 3's
 replays, the largest arrays, are only shapes) from placeholder networks of the config's shapes,
-and its chunk program is lowered and compiled, never run.  A stage started later by ``train.py`` from a run directory (``--stage``, ``--resume``: its
-inputs restored from checkpoints) with the same config, chunk length and cache directory
-reads that program from the cache instead of compiling it.  Reading it still traces and lowers
-the program (about 3 minutes for the ``paper`` preset on an H100), so one ``--resume`` process
-for stages 2 and 3 pays that once.  Stages 2 and 3 of one config run one
-chunk program (``VagsStage.program_key``), so ``stage2`` compiles stage 3's as well.  Only the
-first chunk's length is compiled (``--chunk``, else ``pipeline.default_chunk``): a stage whose
-iterations are not a multiple of it compiles its last, shorter chunk itself.
+and its chunk program is lowered and compiled, never run.  A stage started later by
+``train.py`` (from a run directory with ``--stage`` or ``--resume``, its inputs restored from
+checkpoints, or in the whole pipeline: ``train.py --compile-ahead``) with the same config,
+chunk length and cache directory reads that program from the cache instead of compiling it.
+Reading it still traces and lowers the program (about 3 minutes for the ``paper`` preset on an
+H100), so one ``--resume`` process for stages 2 and 3 pays that once.  Stages 2 and 3 of one
+config run one chunk program (``VagsStage.program_key``), so ``stage2`` compiles stage 3's as
+well.  Only the first chunk's length is compiled (``--chunk``, else
+``pipeline.default_chunk``): a stage whose iterations are not a multiple of it compiles its
+last, shorter chunk itself.
 """
 from __future__ import annotations
 
