@@ -1,0 +1,53 @@
+"""Prints the tables of bench/RESULTS.md, "Viewpoints that pay, twenty-second look": the `gpu`
+preset trained twice on one bare H100 (cold, then with the compile cache warm), VAGS and
+``--no-viewpoint`` on the default scenes, seeds 11-13, for each training; and, on 6-10 objects,
+where objects left the table (per attempt, direct grasps and grasps after a move).
+Run from anywhere: python bench/results/viewpoints/default/twentysecond_look/tables.py"""
+import os
+import sys
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.dirname(os.path.dirname(HERE)))
+from report_tables import branches_table, differences, find, row, table  # noqa: E402
+
+RUNS = (("cold", "run g53 (cold)"), ("warm", "run g53w (warm)"))
+
+
+def lost_row(d):
+    """6-10 objects: attempts, objects lost, lost per attempt over all attempts, over direct
+    attempts (the losses of grasps after a move taken out), and per move."""
+    a = lost = moves = lost_moved = 0
+    for k in range(6, 11):
+        o = d["outcomes"][str(k)]
+        for n, att, s, rem, v, lm in zip(o["n_objects"], o["attempts"], o["successes"], o["remaining"],
+                                          o["viewpoints"], o["lost_after_move"]):
+            a, lost, moves, lost_moved = a + att, lost + n - s - rem, moves + v, lost_moved + lm
+    return a, lost, lost / a, (lost - lost_moved) / (a - moves), (lost_moved / moves if moves else float("nan"))
+
+
+def main():
+    cases, gains, branches, losses = [], [], [], []
+    for sub, nets in RUNS:
+        for s in (11, 12, 13):
+            nv = find(os.path.join(HERE, sub, f"seed{s}"), "eval_vags-no-viewpoint")
+            va = find(os.path.join(HERE, sub, f"seed{s}"), "eval_vags")
+            cases += [(s, nets, "`--no-viewpoint`", nv), (s, nets, "VAGS", va)]
+            rn, rv = row(nv), row(va)
+            gains.append((f"{s}, {nets}", rv[0] - rn[0], rv[1] - rn[1], rv[2] - rn[2]))
+            o = va["overall"]
+            branches.append((s, nets, o["success_direct"], o["success_after_move"], o["first_attempt_success"],
+                             nv["overall"]["first_attempt_success"]))
+            losses += [(s, nets, "`--no-viewpoint`", lost_row(nv)), (s, nets, "VAGS", lost_row(va))]
+    table("The default scenes, groups 1-10 x 50 rounds", cases)
+    differences("Points, VAGS − ablation", ["success", "6-10 success", "6-10 clearing"], gains)
+    branches_table("networks", branches)
+    print("\nObjects that left the table without a grasp, 6-10 objects (250 rounds)\n")
+    print("| seed | networks | policy | attempts | objects lost | per attempt | per direct attempt | per move |")
+    print("|---:|---|---|---:|---:|---:|---:|---:|")
+    for s, nets, policy, (a, lost, per, direct, moved) in losses:
+        print(f"| {s} | {nets} | {policy} | {a} | {lost} | {per:.3f} | {direct:.3f} | "
+              + ("" if moved != moved else f"{moved:.3f}") + " |")
+
+
+if __name__ == "__main__":
+    main()
