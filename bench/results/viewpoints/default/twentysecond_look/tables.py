@@ -1,7 +1,8 @@
 """Prints the tables of bench/RESULTS.md, "Viewpoints that pay, twenty-second look": the `gpu`
 preset trained twice on one bare H100 (cold, then with the compile cache warm), VAGS and
 ``--no-viewpoint`` on the default scenes, seeds 11-13, for each training; and, on 6-10 objects,
-where objects left the table (per attempt, direct grasps and grasps after a move).
+where objects left the table (per attempt, direct grasps and grasps after a move); and the 6-10
+margin against the moves and the motion number over the twentieth to twenty-second looks.
 Run from anywhere: python bench/results/viewpoints/default/twentysecond_look/tables.py"""
 import os
 import sys
@@ -23,6 +24,35 @@ def lost_row(d):
                                           o["viewpoints"], o["lost_after_move"]):
             a, lost, moves, lost_moved = a + att, lost + n - s - rem, moves + v, lost_moved + lm
     return a, lost, lost / a, (lost - lost_moved) / (a - moves), (lost_moved / moves if moves else float("nan"))
+
+
+def moved_share(d):
+    """Percent of the attempts on 6-10 objects that moved the camera first."""
+    big = [g for g in d["groups_metrics"] if g["n_objects"] >= 6]
+    return 100 * sum(g["viewpoint_rate"] * g["attempts"] for g in big) / sum(g["attempts"] for g in big)
+
+
+def margin_fits():
+    """Every VAGS evaluation of the twentieth to twenty-second looks against the ablation of its
+    own training and seed: 6-10 margin, moves, motion number; then two least-squares lines."""
+    import numpy as np
+    up = os.path.dirname(HERE)
+    evals = [("twentieth_look", "", "")] + [("twentyfirst_look", v, "") for v in ("", "cap130", "bins16_cap130")] \
+        + [("twentysecond_look", r, r) for r in ("cold", "warm")]
+    rows = []
+    print("\n| look | VAGS | seed | 6-10 margin | 6-10 attempts moved % | motion number |\n|---|---|---:|---:|---:|---:|")
+    for look, sub, ablation in evals:
+        for s in (11, 12, 13):
+            va = find(os.path.join(up, look, sub, f"seed{s}"), "eval_vags")
+            nv = find(os.path.join(up, look, ablation, f"seed{s}"), "eval_vags-no-viewpoint")
+            r = (row(va)[1] - row(nv)[1], moved_share(va), row(va)[3])
+            rows.append(r)
+            print(f"| {look} | {sub or 'run'} | {s} | {r[0]:+.1f} | {r[1]:.1f} | {r[2]:.3f} |")
+    m, moved, mn = np.array(rows).T
+    a, b = np.polyfit(moved, m, 1)
+    c, d = np.polyfit(mn, m, 1)
+    print(f"\nmargin = {a:.3f} x moved % {b:+.2f};  margin = {c:.2f} x motion number {d:+.2f}, "
+          f"{np.polyval([c, d], 1.35):+.2f} at 1.35")
 
 
 def main():
@@ -47,6 +77,7 @@ def main():
     for s, nets, policy, (a, lost, per, direct, moved) in losses:
         print(f"| {s} | {nets} | {policy} | {a} | {lost} | {per:.3f} | {direct:.3f} | "
               + ("" if moved != moved else f"{moved:.3f}") + " |")
+    margin_fits()
 
 
 if __name__ == "__main__":
