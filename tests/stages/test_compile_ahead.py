@@ -9,7 +9,8 @@ from types import SimpleNamespace
 import pytest
 
 from vags_jax import compile_cache
-from vags_jax.stages import compile_ahead, driver
+from vags_jax import config as C
+from vags_jax.stages import compile_ahead, driver, rundir
 
 
 def test_why_not_needs_the_shared_cache_and_a_gpu_unless_forced():
@@ -29,6 +30,8 @@ def test_the_command_precompiles_stage_2_of_the_run_into_the_cache():
     assert argv[:3] == [sys.executable, "-m", "vags_jax.stages.precompile"]
     assert argv[3:] == ["--run", "runs/r", "--stages", "stage2", "--cache-dir", "/c", "--json", "--chunk", "5"]
     assert "--chunk" not in compile_ahead.command("runs/r", "/c", None)
+    gate = compile_ahead.command("runs/r", "/c", None, stages="gate")
+    assert gate[gate.index("--stages") + 1] == "gate"
 
 
 def _child(tmp_path, code: str, lines: list):
@@ -61,7 +64,7 @@ def test_a_failed_child_is_a_warning_and_the_pipeline_goes_on(tmp_path):
     got = ahead.finish()
     assert got["status"] == "exit code 3" and "report" not in got
     assert lines[-1].startswith("warning: compile ahead: the second process ended with exit code 3")
-    assert "stage 2 compiles its own programs" in lines[-1]
+    assert "stage 2's programs compile when needed" in lines[-1]
 
 
 def test_a_child_that_cannot_start_is_a_warning(tmp_path):
@@ -97,3 +100,64 @@ def test_the_pipeline_compiles_ahead_only_where_stage_1_trains_before_stage_2(tm
     if started:
         assert ahead.argv[ahead.argv.index("--run") + 1] == str(tmp_path)
         assert ahead.proc is None  # started by stage 1's first chunk, not before
+
+
+@pytest.mark.parametrize("mode, only, worlds, started", [
+    ("on", None, 4, True),      # the whole pipeline measures the table after stage 3
+    ("on", None, 0, False),     # gate_table.worlds=0: no table to measure
+    ("auto", None, 4, False),   # this suite runs on a CPU
+    ("on", "stage3", 4, False),  # one stage alone measures no table
+])
+def test_the_gate_tables_program_compiles_ahead_only_where_the_pipeline_measures_it(tmp_path, tiny_cfg, mode,
+                                                                                    only, worlds, started):
+    cfg = C.replace(tiny_cfg, **{"gate_table.worlds": worlds})
+    child = driver._compile_gate_ahead(_args(str(tmp_path), mode), cfg, only)
+    assert (child is not None) == started
+    if started:
+        assert child.argv[child.argv.index("--stages") + 1] == "gate" and child.proc is None
+        assert child.log_path == os.path.join(str(tmp_path), compile_ahead.GATE_LOG_FILE)
+
+
+class _StandIn:
+    """A compile-ahead child that records when the pipeline starts and waits for it."""
+
+    def __init__(self, name, events):
+        self.name, self.events, self.started = name, events, False
+
+    def start(self):
+        if not self.started:
+            self.started = True
+            self.events.append(f"start {self.name}")
+
+    def finish(self):
+        self.events.append(f"finish {self.name}")
+        return {"status": "done", "wall_s": 1.0, "waited_s": 0.0, "report": {self.name: {"compile": {"compiled": 1}}}}
+
+
+def test_the_pipeline_starts_each_child_after_a_first_chunk_and_waits_before_its_programs_run(tmp_path, tiny_cfg,
+                                                                                              monkeypatch):
+    events = []
+
+    def run_stage(cfg, args, name, done, h, deadline, programs, arrays, stop, board, first, deferred):
+        events.append(f"run {name}")
+        if first is not None:
+            first()  # the stage's first chunk has run
+        return {"stage": name, "iterations": rundir.total(cfg, name)}, h
+
+    monkeypatch.setattr(driver, "run_stage", run_stage)
+    monkeypatch.setattr(driver, "measure_gate", lambda args, cfg, programs: events.append("measure gate") or {})
+    monkeypatch.setattr(driver.gate_measure, "due", lambda *a: True)
+    monkeypatch.setattr(driver, "report_end", lambda *a, **k: None)
+    args = _args(str(tmp_path), "on", quiet=True, max_minutes=None)
+    stop = SimpleNamespace(requested=False, protected=driver.contextlib.nullcontext)
+    plan = SimpleNamespace(stage1_arrays=None)
+    programs = SimpleNamespace(env=lambda cfg: None)
+    code = driver._pipeline_stages(args, None, plan, programs, stop, None, tiny_cfg, time.time(), None, [],
+                                   driver.pipeline.Handover(), rundir.ORDER, _StandIn("stage2", events), [],
+                                   _StandIn("gate", events))
+    assert code == 0
+    assert events == ["run stage1", "start stage2", "finish stage2", "run stage2", "start gate", "run stage3",
+                      "finish gate", "measure gate"]
+    with open(os.path.join(str(tmp_path), "timings.jsonl")) as f:
+        rows = [ln for ln in f.read().splitlines() if ln]
+    assert [r.split('"stage": "')[1].split('"')[0] for r in rows] == ["compile_ahead", "compile_ahead_gate"]

@@ -12,6 +12,10 @@ of stage 2's worlds (not its replays, which the child only shapes) beside stage 
 allocates on demand (``XLA_PYTHON_CLIENT_PREALLOCATE=false``).  Whatever happens to the child, the pipeline goes on:
 if it fails, stage 2 compiles its own programs as without it (one warning line naming the
 child's log, ``RUN/compile_ahead.log``).
+
+The rate gate's table, measured after stage 3, has its own program: a second child
+(``--stages gate``, log ``RUN/compile_ahead_gate.log``) compiles it once stage 2's (or, resumed,
+stage 3's) first chunk has run, and the pipeline waits for it before measuring the table.
 """
 from __future__ import annotations
 
@@ -28,12 +32,14 @@ from vags_jax import compile_cache
 
 MODES = ("auto", "on", "off")
 LOG_FILE = "compile_ahead.log"
+GATE_LOG_FILE = "compile_ahead_gate.log"
 
 
-def command(run_dir: str, cache_root: str, chunk: Optional[int]) -> List[str]:
-    """The child's command line: stage 2's start and chunk program of ``run_dir``'s config into
-    the cache rooted at ``cache_root``; ``chunk``: train.py's --chunk, if given."""
-    argv = [sys.executable, "-m", "vags_jax.stages.precompile", "--run", run_dir, "--stages", "stage2",
+def command(run_dir: str, cache_root: str, chunk: Optional[int], stages: str = "stage2") -> List[str]:
+    """The child's command line: ``stages``' programs of ``run_dir``'s config (stage 2's start and
+    chunk program, or "gate": the rate gate's table) into the cache rooted at ``cache_root``;
+    ``chunk``: train.py's --chunk, if given."""
+    argv = [sys.executable, "-m", "vags_jax.stages.precompile", "--run", run_dir, "--stages", stages,
             "--cache-dir", cache_root, "--json"]
     return argv + (["--chunk", str(chunk)] if chunk else [])
 
@@ -57,23 +63,27 @@ def why_not(mode: str, flag: Optional[str], platform: str) -> Optional[str]:
         return "off"
     if cache_root(flag) is None:
         return ("there is no compile cache of train.py's to share (--cache-dir off, or JAX's cache set elsewhere), "
-                "so stage 2 could not load what a second process compiled")
+                "so the pipeline could not load what a second process compiled")
     if mode == "auto" and platform == "cpu":
         return "on a CPU stage 1 needs the cores (--compile-ahead on forces it)"
     return None
 
 
 class CompileAhead:
-    """The child process of stage 2's compiling (module docstring).  ``start()`` launches it
+    """A child process compiling programs ahead (stage 2's or the gate table's; module docstring).  ``start()`` launches it
     (once; later calls do nothing), ``finish()`` waits for it and says how it went (-> its
     report: wall time and, when it printed one, ``precompile``'s JSON report), ``close()`` ends
-    it if it still runs (on an error or a stop request).  ``argv`` replaces the command (tests)."""
+    it if it still runs (on an error or a stop request).  ``argv`` replaces the command (tests);
+    ``what`` names the programs and ``during`` what trains meanwhile, for the log lines;
+    ``log_file`` is the child's output in ``run_dir``."""
 
-    def __init__(self, run_dir: str, argv: List[str], log: Callable[[str], None] = print):
+    def __init__(self, run_dir: str, argv: List[str], log: Callable[[str], None] = print,
+                 what: str = "stage 2's programs", during: str = "stage 1 trains", log_file: str = LOG_FILE):
         self.run_dir, self.argv, self.log = run_dir, argv, log
+        self.what, self.during = what, during
         self.proc: Optional[subprocess.Popen] = None
         self.t0 = 0.0
-        self.log_path = os.path.join(run_dir, LOG_FILE)
+        self.log_path = os.path.join(run_dir, log_file)
 
     def start(self) -> None:
         if self.proc is not None:
@@ -86,11 +96,11 @@ class CompileAhead:
                 self.proc = subprocess.Popen(self.argv, stdout=out, stderr=subprocess.STDOUT, env=env,
                                              start_new_session=True)
         except OSError as e:
-            self.log(f"warning: compile ahead: could not start the second process ({e}); stage 2 compiles its "
-                     f"own programs")
+            self.log(f"warning: compile ahead: could not start a second process for {self.what} ({e}); they "
+                     f"compile when needed")
             return
-        self.log(f"compile ahead: stage 2's programs compiling in a second process (pid {self.proc.pid}, "
-                 f"log {self.log_path}) while stage 1 trains")
+        self.log(f"compile ahead: {self.what} compiling in a second process (pid {self.proc.pid}, "
+                 f"log {self.log_path}) while {self.during}")
 
     def finish(self) -> dict:
         """Waits for the child (if started) -> {"wall_s", "waited_s", "status", "report"?}."""
@@ -98,7 +108,7 @@ class CompileAhead:
             return {"status": "not started"}
         tw = time.time()
         if self.proc.poll() is None:
-            self.log("compile ahead: waiting for the second process to finish stage 2's programs ...")
+            self.log(f"compile ahead: waiting for the second process to finish {self.what} ...")
         rc = self.proc.wait()
         got = {"wall_s": round(time.time() - self.t0, 1), "waited_s": round(time.time() - tw, 1),
                "status": "done" if rc == 0 else f"exit code {rc}"}
@@ -106,11 +116,11 @@ class CompileAhead:
         if report is not None:
             got["report"] = report
         if rc == 0:
-            self.log(f"compile ahead: stage 2's programs ready after {got['wall_s']} s "
+            self.log(f"compile ahead: {self.what} ready after {got['wall_s']} s "
                      f"(waited {got['waited_s']} s for them)")
         else:
             self.log(f"warning: compile ahead: the second process ended with exit code {rc} (see "
-                     f"{self.log_path}); stage 2 compiles its own programs")
+                     f"{self.log_path}); {self.what} compile when needed")
         return got
 
     def close(self) -> None:
@@ -132,4 +142,4 @@ def _last_json_line(path: str) -> Optional[dict]:
         return None
 
 
-__all__ = ["MODES", "LOG_FILE", "command", "cache_root", "why_not", "CompileAhead"]
+__all__ = ["MODES", "LOG_FILE", "GATE_LOG_FILE", "command", "cache_root", "why_not", "CompileAhead"]

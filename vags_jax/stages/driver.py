@@ -624,13 +624,15 @@ def _pipeline_locked(args, only, plan, programs: Programs, stop, board) -> int:
     summaries, h = [], pipeline.Handover()
     names = rundir.ORDER if only is None else (only,)
     ahead = _compile_ahead(args, cfg, only)
+    gate_ahead = _compile_gate_ahead(args, cfg, only)
     deferred: list = []  # stages' last checkpoints, written while the next stage starts
     try:
         return _pipeline_stages(args, only, plan, programs, stop, board, cfg, t0, deadline, summaries, h, names, ahead,
-                                deferred)
+                                deferred, gate_ahead)
     finally:
-        if ahead is not None:
-            ahead.close()
+        for child in (ahead, gate_ahead):
+            if child is not None:
+                child.close()
         with stop.protected():  # a second Ctrl-C must not cut a checkpoint's files
             _finish_saves(deferred)
 
@@ -639,6 +641,14 @@ def _finish_saves(deferred: list) -> None:
     """Waits until every deferred checkpoint is on disk."""
     while deferred:
         deferred.pop(0).finish()
+
+
+def _finish_ahead(args, child: compile_ahead.CompileAhead, row: str, part: str) -> None:
+    """Waits for a compile-ahead child and logs it in timings.jsonl as ``row`` (``part``: the
+    key of its report whose compile counts the row keeps)."""
+    got = child.finish()
+    log_timing(args.out, row, 0, 1 if got["status"] == "done" else 0, got.get("wall_s", 0.0), got["status"],
+               (got.get("report") or {}).get(part, {}).get("compile"), waited_s=got.get("waited_s", 0.0))
 
 
 def _compile_ahead(args, cfg, only) -> Optional[compile_ahead.CompileAhead]:
@@ -659,9 +669,25 @@ def _compile_ahead(args, cfg, only) -> Optional[compile_ahead.CompileAhead]:
     return compile_ahead.CompileAhead(args.out, argv, log=log)
 
 
+def _compile_gate_ahead(args, cfg, only) -> Optional[compile_ahead.CompileAhead]:
+    """The second process that compiles the rate gate's table program while stage 2 or 3 trains,
+    when ``--compile-ahead`` and this run call for one: the whole pipeline measures the table
+    (``gate_table.worlds`` > 0) and stage 3 is still to train here.  Says nothing when not."""
+    mode = getattr(args, "compile_ahead", "off")
+    if (only is not None or mode == "off" or cfg.parallel.devices > 1 or cfg.gate_table.worlds == 0
+            or not cfg.stage3.iterations or rundir.progress(args.out, "stage3") >= rundir.total(cfg, "stage3")
+            or compile_ahead.why_not(mode, args.cache_dir, jax.default_backend()) is not None):
+        return None
+    argv = compile_ahead.command(args.out, compile_ahead.cache_root(args.cache_dir), None, stages="gate")
+    return compile_ahead.CompileAhead(args.out, argv, log=log, what="the gate table's program",
+                                      during="stages 2 and 3 train", log_file=compile_ahead.GATE_LOG_FILE)
+
+
 def _pipeline_stages(args, only, plan, programs, stop, board, cfg, t0, deadline, summaries, h, names, ahead,
-                     deferred) -> int:
-    """The stages of ``_pipeline_locked`` in order, then the gate's table and the closing summary."""
+                     deferred, gate_ahead=None) -> int:
+    """The stages of ``_pipeline_locked`` in order, then the gate's table and the closing summary;
+    ``ahead`` / ``gate_ahead``: the children compiling stage 2's and the gate's programs, started
+    after stage 1's and after stage 2's (or 3's) first chunk."""
     for name in names:
         done, want = rundir.progress(args.out, name), rundir.total(cfg, name)
         if done >= want:
@@ -688,11 +714,9 @@ def _pipeline_stages(args, only, plan, programs, stop, board, cfg, t0, deadline,
                 return fail(e)
             arrays, plan.stage1_arrays = (plan.stage1_arrays, None) if name == "stage1" else (None, plan.stage1_arrays)
             if name == "stage2" and ahead is not None:
-                got = ahead.finish()
-                log_timing(args.out, "compile_ahead", 0, 1 if got["status"] == "done" else 0, got.get("wall_s", 0.0),
-                           got["status"], (got.get("report") or {}).get("stage2", {}).get("compile"),
-                           waited_s=got.get("waited_s", 0.0))
-            first = ahead.start if name == "stage1" and ahead is not None else None
+                _finish_ahead(args, ahead, "compile_ahead", "stage2")
+            first = ahead.start if name == "stage1" and ahead is not None else (
+                gate_ahead.start if name in ("stage2", "stage3") and gate_ahead is not None else None)
             summary, h = run_stage(cfg, args, name, done, h, deadline, programs, arrays, stop, board, first, deferred)
             if isinstance(summary, int):
                 return summary
@@ -709,6 +733,8 @@ def _pipeline_stages(args, only, plan, programs, stop, board, cfg, t0, deadline,
             print(f"stopped after {args.max_minutes} min before the rate gate's table; --resume measures it",
                   file=sys.stderr)
         else:
+            if gate_ahead is not None:
+                _finish_ahead(args, gate_ahead, "compile_ahead_gate", "gate")
             summaries.append(measure_gate(args, cfg, programs))
     with stop.protected():
         _finish_saves(deferred)  # the summary reads each stage's progress from its checkpoints

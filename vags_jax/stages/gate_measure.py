@@ -117,6 +117,32 @@ def due(run_dir: str, cfg, stage3_finished: Optional[bool] = None) -> bool:
     return bool(steps) and rate_gate.load(run_dir, rundir.networks_source("stage3", max(steps))) is None
 
 
+def _collect_program(cfg, programs: Programs):
+    """(env, the jitted collect step) of measure config ``cfg``, built once per ``programs``."""
+    env = programs.env(cfg)
+    return env, programs.get(programs.cfg_key("gate_collect", cfg), lambda: make_collect(cfg, env, VagsNets(cfg)))
+
+
+def _first_piles(env: VagsEnv, cfg, worlds: int, seed: int):
+    """-> (key, the fresh piles of stage 3's object counts the table starts from)."""
+    key = jax.random.PRNGKey(seed)
+    k_n, k_reset, key = jax.random.split(key, 3)
+    n_obj = jax.random.randint(k_n, (worlds,), cfg.stage3.min_objects, cfg.stage3.max_objects + 1)
+    return key, env.reset(k_reset, n_obj)
+
+
+def compile_collect(run_cfg, networks, programs=None) -> None:
+    """Compiles (never runs) the table's collect step for a run of config ``run_cfg`` into the
+    compile cache, from ``networks`` (``rundir.VagsNetworks``; only their shapes matter, so
+    placeholders do): every pick of GDNets runs this one program.  The first piles are reset for
+    real (``gate_table.worlds`` of them).  ``stages.precompile --stages gate`` calls it."""
+    g = run_cfg.gate_table
+    cfg = measure_config(run_cfg)
+    env, step = _collect_program(cfg, Programs() if programs is None else programs)
+    key, state = _first_piles(env, cfg, g.worlds or GateTable().worlds, g.seed)
+    step.lower(vags_params(networks, cfg), key, state, jnp.asarray(False)).compile()
+
+
 def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=print, programs=None,
             count_lost=None, gdnet="stage3", follow="direct"):
     """The gate table of a trained run (stage 3's networks, else stage 2's) -> (GateTable, meta,
@@ -138,14 +164,9 @@ def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=pri
     networks = rundir.load_vags(run_dir, cfg, gdnet=gdnet)
     params = vags_params(networks, cfg)  # ValueError without a success net
     stage = cfg.stage3
-    programs = Programs() if programs is None else programs
-    env = programs.env(cfg)
-    step = programs.get(programs.cfg_key("gate_collect", cfg), lambda: make_collect(cfg, env, VagsNets(cfg)))
-    key = jax.random.PRNGKey(seed)
-    k_n, k_reset, key = jax.random.split(key, 3)
-    n_obj = jax.random.randint(k_n, (worlds,), stage.min_objects, stage.max_objects + 1)
+    env, step = _collect_program(cfg, Programs() if programs is None else programs)
     t0 = time.time()
-    state = env.reset(k_reset, n_obj)
+    key, state = _first_piles(env, cfg, worlds, seed)
     parts: dict[str, list] = {}
     for t in range(steps):
         key, k = jax.random.split(key)

@@ -37,11 +37,11 @@ import jax.numpy as jnp
 from vags_jax import cli
 from vags_jax import config as C
 from vags_jax.compile_cache import CompileClock
-from vags_jax.stages import checkpoint, pipeline, rundir
+from vags_jax.stages import checkpoint, gate_measure, pipeline, rundir
 from vags_jax.stages import ggcnn as ggcnn_stage
 from vags_jax.stages.programs import Programs
 
-STAGES = ("stage1", "stage2", "stage3")
+STAGES = ("stage1", "stage2", "stage3", "gate")  # "gate": the rate gate's table (``stages.gate_measure``)
 
 
 def placeholder_handover(cfg: C.Config, name: str, has_ggcnn: bool = False) -> pipeline.Handover:
@@ -60,6 +60,23 @@ def placeholder_handover(cfg: C.Config, name: str, has_ggcnn: bool = False) -> p
                              success=dev(rundir.learner_target(cfg, "gdnet")), threshold=jnp.zeros((), jnp.float32))
 
 
+def placeholder_networks(cfg: C.Config, has_ggcnn: bool = False) -> rundir.VagsNetworks:
+    """Stage 3's networks as ``rundir.load_vags`` gives them, as zeros of their shapes: GDNet,
+    VANet, the success net, the "q" threshold, the calibration (3,), GG-CNN's where the run
+    uses one or holds one (``has_ggcnn``)."""
+    dev = lambda tree: jax.tree.map(jnp.asarray, tree)  # noqa: E731
+    net = lambda kind: dev(rundir.vars_target(cfg, kind))  # noqa: E731
+    gg = dev(ggcnn_stage.abstract_params()) if rundir.needs_ggcnn(cfg) or has_ggcnn else None
+    return rundir.VagsNetworks(gdnet=net("gdnet"), vanet=net("vanet"), ggcnn=gg,
+                               q_threshold=jnp.zeros((), jnp.float32), success=net("gdnet"),
+                               calibration=jnp.zeros((3,), jnp.float32), source="stage3 step 0")
+
+
+def precompile_gate(cfg: C.Config, programs: Optional[Programs] = None, has_ggcnn: bool = False) -> None:
+    """The rate gate's table program (``gate_measure.compile_collect``) from placeholder networks."""
+    gate_measure.compile_collect(cfg, placeholder_networks(cfg, has_ggcnn), programs)
+
+
 def precompile(cfg: C.Config, names: Sequence[str], chunk: Optional[int] = None,
                programs: Optional[Programs] = None, log: Callable[[str], None] = print,
                has_ggcnn: bool = False) -> dict:
@@ -71,6 +88,14 @@ def precompile(cfg: C.Config, names: Sequence[str], chunk: Optional[int] = None,
     programs = Programs() if programs is None else programs
     report = {}
     for name in names:
+        if name == "gate":
+            t0 = time.time()
+            with CompileClock() as clock:
+                precompile_gate(cfg, programs, has_ggcnn)
+            report[name] = {"wall_s": round(time.time() - t0, 1), "compile": clock.as_dict()}
+            log(f"precompile: the gate table's program ready in {report[name]['wall_s']} s "
+                f"({clock.compiled} compiled, {clock.loaded} loaded from the cache)")
+            continue
         total = rundir.total(cfg, name)
         n = min(chunk or pipeline.default_chunk(total), total)
         t0 = time.time()
@@ -92,8 +117,9 @@ def parse_args(argv=None):
     p.add_argument("--run", default=None, help="a run directory: its config.json (as train.py wrote it)")
     p.add_argument("--config", default=None, help="preset, when no --run (default: tiny)")
     p.add_argument("--set", nargs="*", default=[], metavar="SECTION.FIELD=VALUE", help="config overrides")
-    p.add_argument("--stages", default="stage2", help="comma-separated, of stage1, stage2, stage3 (default: stage2, "
-                                                      "whose chunk program stage 3 shares)")
+    p.add_argument("--stages", default="stage2", help="comma-separated, of stage1, stage2, stage3, gate (default: "
+                                                      "stage2, whose chunk program stage 3 shares; gate: the rate "
+                                                      "gate's table, measured after stage 3)")
     p.add_argument("--chunk", type=cli.int_in(1), default=None,
                    help="iterations per chunk, as train.py --chunk (default: a tenth of each stage, at most 50)")
     p.add_argument("--json", action="store_true", help="print the report as one JSON line at the end")

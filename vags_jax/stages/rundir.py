@@ -208,7 +208,9 @@ def save_networks(run_dir: str, name: str, step: int, state, cfg: Config) -> str
     return d
 
 
-def _vars_target(cfg: Config, kind: str) -> dict:
+def vars_target(cfg: Config, kind: str) -> dict:
+    """Host zeros shaped like a GDNet / VANet / NBV network's variables ({"params", "batch_stats"}
+    of ``learner_target``): what a run's networks are restored into."""
     ts = learner_target(cfg, kind)
     return {"params": ts.params, "batch_stats": ts.batch_stats}
 
@@ -267,11 +269,11 @@ def load_vags(run_dir: str, cfg: Optional[Config] = None, step: Optional[int] = 
 
 def _restore_vags(run_dir: str, cfg: Config, name: str, step: Optional[int]):
     """One stage's saved networks -> (gdnet, vanet, threshold, success, calibration, step)."""
-    gdnet = _vars_target(cfg, "gdnet")  # the success net has GDNet's architecture
+    gdnet = vars_target(cfg, "gdnet")  # the success net has GDNet's architecture
     # success: absent in runs from before the success net; calibration (3,), (2,) in runs from
     # before the mean success after a move was kept, so it is read as saved.
     got, s = checkpoint.restore_parts(networks_dir(run_dir, name),
-                                      {"gdnet": gdnet, "vanet": _vars_target(cfg, "vanet"),
+                                      {"gdnet": gdnet, "vanet": vars_target(cfg, "vanet"),
                                        "threshold": np.zeros((), np.float32), "success": gdnet,
                                        "calibration": None}, step, optional=("success", "calibration"))
     cal = None if got["calibration"] is None else jnp.asarray(
@@ -300,7 +302,7 @@ def load_nbv(run_dir: str, cfg: Optional[Config] = None) -> VagsNetworks:
     if not (os.path.isdir(d) and checkpoint.checkpoint_steps(d)):
         raise checkpoint.CheckpointError(f"run {run_dir} has no NBV network yet: train it with "
                                          f"python train.py --out {run_dir} --stage nbv")
-    got, s = checkpoint.restore_parts(d, {"gdnet": _vars_target(cfg, "gdnet"), "vanet": _vars_target(cfg, "nbv")})
+    got, s = checkpoint.restore_parts(d, {"gdnet": vars_target(cfg, "gdnet"), "vanet": vars_target(cfg, "nbv")})
     gd, va = got["gdnet"], got["vanet"]
     gg = None
     if os.path.isdir(ggcnn_stage.ggcnn_dir(run_dir)):
@@ -338,6 +340,6 @@ def load_gdnet(run_dir: str, step: Optional[int] = None):
     return cfg, {"params": learner.params, "batch_stats": learner.batch_stats}, step
 
 
-__all__ = ["picked_gdnet", "GDNET_PICKS", "ORDER", "BASELINES", "prerequisites", "load_nbv", "ALIASES", "DESCRIPTION", "canonical", "stage_dir", "total", "progress", "stage_key",
+__all__ = ["picked_gdnet", "GDNET_PICKS", "ORDER", "BASELINES", "prerequisites", "load_nbv", "ALIASES", "DESCRIPTION", "canonical", "stage_dir", "total", "progress", "stage_key", "vars_target",
            "learner_target", "stage1_gdnet", "needs_ggcnn", "ggcnn_params", "stage2_result", "VagsNetworks",
            "load_vags", "networks_dir", "save_networks", "ggcnn_reusable", "load_gdnet"]
