@@ -33,6 +33,7 @@ from typing import Callable, Optional, Sequence
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from vags_jax import cli
 from vags_jax import config as C
@@ -64,12 +65,13 @@ def placeholder_networks(cfg: C.Config, has_ggcnn: bool = False) -> rundir.VagsN
     """Stage 3's networks as ``rundir.load_vags`` gives them, as zeros of their shapes: GDNet,
     VANet, the success net, the "q" threshold, the calibration (3,), GG-CNN's where the run
     uses one or holds one (``has_ggcnn``)."""
-    dev = lambda tree: jax.tree.map(jnp.asarray, tree)  # noqa: E731
+    # Host zeros put on the device: no program compiles for them (jnp.zeros would compile one).
+    dev = lambda tree: jax.tree.map(lambda x: jax.device_put(np.zeros(x.shape, x.dtype)), tree)  # noqa: E731
     net = lambda kind: dev(rundir.vars_target(cfg, kind))  # noqa: E731
     gg = dev(ggcnn_stage.abstract_params()) if rundir.needs_ggcnn(cfg) or has_ggcnn else None
     return rundir.VagsNetworks(gdnet=net("gdnet"), vanet=net("vanet"), ggcnn=gg,
-                               q_threshold=jnp.zeros((), jnp.float32), success=net("gdnet"),
-                               calibration=jnp.zeros((3,), jnp.float32), source="stage3 step 0")
+                               q_threshold=dev(np.zeros((), np.float32)), success=net("gdnet"),
+                               calibration=dev(np.zeros((3,), np.float32)), source="stage3 step 0")
 
 
 def precompile_gate(cfg: C.Config, programs: Optional[Programs] = None, has_ggcnn: bool = False) -> None:
