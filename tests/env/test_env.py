@@ -8,7 +8,7 @@ from vags_jax.env import VagsEnv, where_worlds
 
 
 # Exact-rendering checks below compare images: the sensor model (on by default) is off here;
-# test_observe_with_depth_noise checks it.  The scenes come from the stages' reset (``noisy``).
+# test_observe_with_depth_noise checks it.  The scenes come from the tiny test config's reset (``noisy``).
 CLEAN = {"camera.noise.enabled": False}
 
 
@@ -19,7 +19,7 @@ def env(tiny_cfg):
 
 @pytest.fixture(scope="module")
 def noisy(tiny_cfg):
-    """The stages' environment (the sensor model on): its reset of 2 worlds is the suite's."""
+    """The tiny test config's environment (the sensor model on): its reset of 2 worlds is the suite's."""
     return VagsEnv(tiny_cfg)
 
 

@@ -22,7 +22,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 sys.path.insert(0, ROOT)
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-from conftest import TINY_TEST_OVERRIDES  # noqa: E402  (and the session's compile cache)
+from conftest import PYRAMIDAL, TINY_TEST_OVERRIDES  # noqa: E402  (and the session's compile cache)
 from vags_jax import config as C  # noqa: E402
 from vags_jax.env import VagsEnv  # noqa: E402
 from vags_jax.nets import init_qnet, make_qnet  # noqa: E402
@@ -30,6 +30,10 @@ from vags_jax.parallel.collectives import AXIS  # noqa: E402
 from vags_jax.parallel.mesh import make_mesh  # noqa: E402
 from vags_jax.rl import dqn, replay  # noqa: E402
 from vags_jax.stages import data_parallel  # noqa: E402
+
+
+# The tiny test config on conftest's PYRAMIDAL cones (as the tests' train.py --set lists).
+TEST_OVERRIDES = {**TINY_TEST_OVERRIDES, **C.parse_overrides(PYRAMIDAL)}
 
 
 def max_diff(a, b) -> float:
@@ -97,7 +101,7 @@ def colour_differences(a, b, edge: float = 2e-3) -> dict:
 
 def train_config(iterations: int = 2):
     """The config ``train.py --devices 2`` builds from ``check_train``'s flags (``sets``)."""
-    return C.replace(C.tiny(), **{**TINY_TEST_OVERRIDES, "stage1.iterations": iterations, "parallel.devices": 2})
+    return C.replace(C.tiny(), **{**TEST_OVERRIDES, "stage1.iterations": iterations, "parallel.devices": 2})
 
 
 def start_worlds(programs) -> object:
@@ -114,7 +118,7 @@ def check_env(programs) -> dict:
     bookkeeping; no reset, no sensor noise) from the same start (``start_worlds``): unsharded,
     with one world on each of 2 devices through the data-parallel stage's layout (a leading
     device axis, ``data_parallel.stack`` / ``unstack`` under ``jax.shard_map``)."""
-    cfg = C.replace(C.tiny(), **{**TINY_TEST_OVERRIDES, "camera.noise.enabled": False})
+    cfg = C.replace(C.tiny(), **{**TEST_OVERRIDES, "camera.noise.enabled": False})
     env = VagsEnv(cfg)
     H, B = cfg.workspace.heightmap_px, 2
     state = start_worlds(programs)
@@ -155,7 +159,7 @@ def check_train(out_dir: str, programs) -> dict:
     one go into OUT_DIR/dp_straight -> {name: {"code", "stderr"}}; the test reads the runs."""
     import train
 
-    sets = lambda n: [f"{k}={v}" for k, v in {**TINY_TEST_OVERRIDES, "stage1.iterations": n}.items()]  # noqa: E731
+    sets = lambda n: [f"{k}={v}" for k, v in {**TINY_TEST_OVERRIDES, "stage1.iterations": n}.items()] + PYRAMIDAL  # noqa: E731
     out, straight = os.path.join(out_dir, "dp"), os.path.join(out_dir, "dp_straight")
     runs = {"first": ["--config", "tiny", "--stage", "gdnet", "--devices", "2", "--chunk", "2", "--quiet",
                       "--out", out, "--set"] + sets(2),

@@ -67,9 +67,9 @@ def test_sharded_env_step_equals_the_unsharded_step_per_world(two_devices):
     grasp outcome, objects left and attempt count; joint positions within 2e-3, heights within
     5 mm, and the same colour heightmap but at object edges.  Not bit for bit: the per-device program (a batch of 1 under
     shard_map) is compiled apart from the batch of 2, and half a second of contacts in the lift
-    grows their rounding differences (measured: 2.2e-4 in joint positions, 1.0 mm in heights;
-    one world jitted alone, unsharded, differed from the sharded step by as much, 4.9e-4 and
-    1.5 mm).  Resets are not compared: a device's worlds draw new scenes from its own key
+    grows their rounding differences (measured with elliptic cones: 2.2e-4 in joint positions,
+    1.0 mm in heights; one world jitted alone, unsharded, differed from the sharded step by as
+    much, 4.9e-4 and 1.5 mm; with the worker's pyramidal cones 1.4e-5 and 4e-6 m).  Resets are not compared: a device's worlds draw new scenes from its own key
     stream, by design.  The start is the 2 worlds of the data-parallel stage that
     ``test_train_py_devices_2_trains_checkpoints_and_resumes`` trains (one program for both)."""
     assert two_devices["stage_programs"] == ["env", "stage1"], two_devices["stage_programs"]
