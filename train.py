@@ -44,9 +44,9 @@ second Ctrl-C abandons the chunk and keeps the last checkpoint.  A world count w
 of device memory (vags_jax/stages/memory.py) exceeds the device's is refused before compiling.
 Compiled programs are cached on disk (--cache-dir, default ~/.cache/vags_jax/compiled): a
 resumed or repeated run loads them instead of compiling.  On a GPU the whole pipeline compiles
-stage 2's programs in a thread while stage 1 trains (--compile-ahead; its time a "compile_ahead"
-row of timings.jsonl), and the gate table's program in another while stages 2 and 3 train (row
-"compile_ahead_gate").
+stage 2's programs in a second process while stage 1 trains (--compile-ahead; its log is
+RUN/compile_ahead.log, its time a "compile_ahead" row of timings.jsonl), and the gate table's
+program in another while stages 2 and 3 train (RUN/compile_ahead_gate.log).
 
     python train.py --config gpu --stage gdnet --devices all --out runs/dp   # stage 1 over every local GPU
 
@@ -116,10 +116,11 @@ def parse_args(argv=None):
                         "environment), so that --devices counts every host's devices (untested on several hosts)")
     cli.add_cache_dir(p)
     p.add_argument("--compile-ahead", choices=("auto", "on", "off"), default="auto",
-                   help="the whole pipeline: once stage 1's first chunk has run, a thread compiles stage 2's "
-                        "programs from the shapes of its start while stage 1 trains, so that stage 2 compiles "
-                        "nothing (vags_jax/stages/compile_ahead.py), and once stage 2's first chunk has run "
-                        "another compiles the gate table's program.  auto: on a GPU (default)")
+                   help="the whole pipeline: once stage 1's first chunk has run, a second process compiles stage "
+                        "2's programs into the compile cache while stage 1 trains, so that stage 2 loads them "
+                        "(vags_jax/stages/compile_ahead.py; the device needs room for stage 2's worlds beside "
+                        "stage 1's), and once stage 2's first chunk has run another compiles the gate table's "
+                        "program.  auto: on a GPU with the compile cache on (default)")
     p.add_argument("--tensorboard", default=None, metavar="DIR",
                    help="also stream every metrics row to TensorBoard event files in DIR (needs the "
                         "tensorboard extra: pip install 'vags_jax[tensorboard]')")

@@ -12,7 +12,6 @@ config (``JAX_COMPILATION_CACHE_DIR``, or ``jax.config`` in a test session) is k
 from __future__ import annotations
 
 import os
-import threading
 from typing import Optional
 
 import jax
@@ -83,35 +82,29 @@ CACHE_HIT_EVENT = "/jax/compilation_cache/cache_hits"
 class CompileClock:
     """What JAX did to compile while this context was open: ``seconds`` (tracing, lowering and
     XLA compiling or loading), ``compiled`` (XLA compiles) and ``loaded`` (executables read from
-    the persistent cache instead).  Counts the thread that opened it only: JAX reports each
-    compile in the thread that compiles, and a program compiled ahead in another thread
-    (``stages.compile_ahead``) is that thread's clock's, not the stage's it runs beside."""
+    the persistent cache instead).  Counts every thread of the process."""
 
     def __init__(self):
         self.seconds, self.backend, self.loaded = 0.0, 0, 0
-        self._thread: Optional[int] = None
 
     @property
     def compiled(self) -> int:
         return self.backend - self.loaded
 
     def _duration(self, event: str, duration: float, **_) -> None:
-        if threading.get_ident() != self._thread:
-            return
         if event.startswith(COMPILE_EVENTS):
             self.seconds += duration
         if event == BACKEND_EVENT:
             self.backend += 1
 
     def _event(self, event: str, **_) -> None:
-        if event == CACHE_HIT_EVENT and threading.get_ident() == self._thread:
+        if event == CACHE_HIT_EVENT:
             self.loaded += 1
 
     def as_dict(self) -> dict:
         return {"seconds": round(self.seconds, 2), "compiled": self.compiled, "loaded": self.loaded}
 
     def __enter__(self) -> "CompileClock":
-        self._thread = threading.get_ident()
         jax.monitoring.register_event_duration_secs_listener(self._duration)
         jax.monitoring.register_event_listener(self._event)
         return self

@@ -1,81 +1,90 @@
-"""``stages/compile_ahead.py`` (train.py --compile-ahead): when the pipeline starts the threads,
-their life (started once, waited for, a failure only warned about) with stand-in work, and on a
-tiny pipeline that stage 2 and the gate table then compile nothing of the programs built ahead."""
+"""``stages/compile_ahead.py`` (train.py --compile-ahead): when the pipeline starts the second
+process, its command line, and the process's life (started once, waited for, a failure only
+warned about, ended on a stop), with stand-in commands instead of the real precompile."""
 import os
-import threading
+import sys
 import time
 from types import SimpleNamespace
 
 import pytest
 
+from vags_jax import compile_cache
 from vags_jax import config as C
-from vags_jax.compile_cache import CompileClock
 from vags_jax.stages import compile_ahead, driver, rundir
 
 
-def test_why_not_needs_a_gpu_unless_forced():
-    assert compile_ahead.why_not("off", "gpu") == "off"
-    assert "on a CPU" in compile_ahead.why_not("auto", "cpu")
-    assert compile_ahead.why_not("auto", "gpu") is None
-    assert compile_ahead.why_not("on", "cpu") is None
+def test_why_not_needs_the_shared_cache_and_a_gpu_unless_forced():
+    assert compile_ahead.why_not("off", None, "gpu") == "off"
+    assert "no compile cache" in compile_ahead.why_not("on", "off", "gpu")
+    assert "on a CPU" in compile_ahead.why_not("auto", None, "cpu")
+    # The suite's cache (conftest: $VAGS_JAX_CACHE_DIR) is the one this process compiles into.
+    assert compile_ahead.cache_root(None) == compile_cache.resolve(None)
+    assert compile_ahead.why_not("auto", None, "gpu") is None
+    assert compile_ahead.why_not("on", None, "cpu") is None
+    # A --cache-dir other than the one this process uses cannot be shared.
+    assert compile_ahead.cache_root("/somewhere/else") is None
 
 
-def test_the_thread_is_started_once_waited_for_and_its_report_and_compiles_kept():
-    lines, threads, release = [], [], threading.Event()
-
-    def work():
-        threads.append(threading.get_ident())
-        release.wait(10)
-        import jax
-        import jax.numpy as jnp
-        jax.jit(lambda x: x * 3 + 1).lower(jnp.zeros((7, 5))).compile()  # a program of its own
-        return {"stage2": "report"}
-
-    ahead = compile_ahead.CompileAhead(work, log=lines.append)
-    assert ahead.finish() == {"status": "not started"}
-    with CompileClock() as here:
-        ahead.start()
-        ahead.start()  # a second call starts nothing
-        release.set()
-        got = ahead.finish()
-    assert len(threads) == 1 and threads[0] != threading.get_ident()
-    assert got["status"] == "done" and got["wall_s"] >= 0 and got["waited_s"] >= 0
-    assert got["report"] == {"stage2": "report"}
-    # The thread's compile is its clock's, not the clock of the thread that waited for it.
-    assert got["compile"]["compiled"] + got["compile"]["loaded"] >= 1
-    assert here.compiled == 0 and here.loaded == 0
-    assert "in a thread" in lines[0] and "ready after" in lines[-1]
+def test_the_command_precompiles_stage_2_of_the_run_into_the_cache():
+    argv = compile_ahead.command("runs/r", "/c", 5)
+    assert argv[:3] == [sys.executable, "-m", "vags_jax.stages.precompile"]
+    assert argv[3:] == ["--run", "runs/r", "--stages", "stage2", "--cache-dir", "/c", "--json", "--chunk", "5"]
+    assert "--chunk" not in compile_ahead.command("runs/r", "/c", None)
+    gate = compile_ahead.command("runs/r", "/c", None, stages="gate")
+    assert gate[gate.index("--stages") + 1] == "gate"
 
 
-def test_a_failed_thread_is_a_warning_and_the_pipeline_goes_on():
+def _child(tmp_path, code: str, lines: list):
+    run = str(tmp_path)
+    return compile_ahead.CompileAhead(run, [sys.executable, "-c", code], log=lines.append)
+
+
+def test_the_child_is_started_once_waited_for_and_its_report_kept(tmp_path):
     lines = []
+    code = ("import os, json; print('compiling'); "
+            "print(json.dumps({'stage2': {'prealloc': os.environ['XLA_PYTHON_CLIENT_PREALLOCATE']}}))")
+    ahead = _child(tmp_path, code, lines)
+    assert ahead.finish() == {"status": "not started"}
+    ahead.start()
+    pid = ahead.proc.pid
+    ahead.start()  # a second call starts nothing
+    assert ahead.proc.pid == pid
+    got = ahead.finish()
+    assert got["status"] == "done" and got["wall_s"] >= got["waited_s"] >= 0
+    assert got["report"] == {"stage2": {"prealloc": "false"}}  # it allocates device memory on demand
+    with open(os.path.join(str(tmp_path), compile_ahead.LOG_FILE)) as f:
+        assert f.read().startswith("compiling")
+    assert "second process" in lines[0] and "ready after" in lines[-1]
 
-    def work():
-        raise ValueError("no such shape\nsecond line")
 
-    ahead = compile_ahead.CompileAhead(work, log=lines.append)
+def test_a_failed_child_is_a_warning_and_the_pipeline_goes_on(tmp_path):
+    lines = []
+    ahead = _child(tmp_path, "import sys; sys.exit(3)", lines)
     ahead.start()
     got = ahead.finish()
-    assert got["status"] == "error: ValueError: no such shape" and "report" not in got
-    assert lines[-1].startswith("warning: compile ahead: stage 2's programs failed (error: ValueError")
-    assert lines[-1].endswith("they compile when needed")
+    assert got["status"] == "exit code 3" and "report" not in got
+    assert lines[-1].startswith("warning: compile ahead: the second process ended with exit code 3")
+    assert "stage 2's programs compile when needed" in lines[-1]
 
 
-def test_close_says_when_the_pipeline_ends_before_the_thread():
-    lines, release = [], threading.Event()
-    ahead = compile_ahead.CompileAhead(lambda: release.wait(10) and {}, log=lines.append)
+def test_a_child_that_cannot_start_is_a_warning(tmp_path):
+    lines = []
+    ahead = compile_ahead.CompileAhead(str(tmp_path), [str(tmp_path / "no-such-program")], log=lines.append)
     ahead.start()
+    assert ahead.proc is None and lines[-1].startswith("warning: compile ahead: could not start")
+    assert ahead.finish() == {"status": "not started"}
+
+
+def test_close_ends_a_child_still_running(tmp_path):
+    ahead = _child(tmp_path, "import time; time.sleep(60)", [])
+    ahead.start()
+    t0 = time.time()
     ahead.close()
-    assert "ends with the process" in lines[-1]
-    release.set()
-    ahead.finish()
+    assert ahead.proc.poll() is not None and time.time() - t0 < 15
 
 
 def _args(out, mode, **kw):
     return SimpleNamespace(out=out, compile_ahead=mode, cache_dir=None, chunk=None, **kw)
-
-
-_PROGRAMS = SimpleNamespace()  # the selection tests build nothing
 
 
 @pytest.mark.parametrize("mode, only, started", [
@@ -86,10 +95,11 @@ _PROGRAMS = SimpleNamespace()  # the selection tests build nothing
 ])
 def test_the_pipeline_compiles_ahead_only_where_stage_1_trains_before_stage_2(tmp_path, tiny_cfg, mode, only,
                                                                              started):
-    ahead = driver._compile_ahead(_args(str(tmp_path), mode), tiny_cfg, only, _PROGRAMS)
+    ahead = driver._compile_ahead(_args(str(tmp_path), mode), tiny_cfg, only)
     assert (ahead is not None) == started
     if started:
-        assert ahead.thread is None  # started by stage 1's first chunk, not before
+        assert ahead.argv[ahead.argv.index("--run") + 1] == str(tmp_path)
+        assert ahead.proc is None  # started by stage 1's first chunk, not before
 
 
 @pytest.mark.parametrize("mode, only, worlds, started", [
@@ -101,14 +111,15 @@ def test_the_pipeline_compiles_ahead_only_where_stage_1_trains_before_stage_2(tm
 def test_the_gate_tables_program_compiles_ahead_only_where_the_pipeline_measures_it(tmp_path, tiny_cfg, mode,
                                                                                     only, worlds, started):
     cfg = C.replace(tiny_cfg, **{"gate_table.worlds": worlds})
-    ahead = driver._compile_gate_ahead(_args(str(tmp_path), mode), cfg, only, _PROGRAMS)
-    assert (ahead is not None) == started
+    child = driver._compile_gate_ahead(_args(str(tmp_path), mode), cfg, only)
+    assert (child is not None) == started
     if started:
-        assert ahead.thread is None and "gate" in ahead.what
+        assert child.argv[child.argv.index("--stages") + 1] == "gate" and child.proc is None
+        assert child.log_path == os.path.join(str(tmp_path), compile_ahead.GATE_LOG_FILE)
 
 
 class _StandIn:
-    """A compile-ahead thread that records when the pipeline starts and waits for it."""
+    """A compile-ahead child that records when the pipeline starts and waits for it."""
 
     def __init__(self, name, events):
         self.name, self.events, self.started = name, events, False
@@ -120,10 +131,10 @@ class _StandIn:
 
     def finish(self):
         self.events.append(f"finish {self.name}")
-        return {"status": "done", "wall_s": 1.0, "waited_s": 0.0, "compile": {"compiled": 1}, "report": {}}
+        return {"status": "done", "wall_s": 1.0, "waited_s": 0.0, "report": {self.name: {"compile": {"compiled": 1}}}}
 
 
-def test_the_pipeline_starts_each_thread_after_a_first_chunk_and_waits_before_its_programs_run(tmp_path, tiny_cfg,
+def test_the_pipeline_starts_each_child_after_a_first_chunk_and_waits_before_its_programs_run(tmp_path, tiny_cfg,
                                                                                               monkeypatch):
     events = []
 

@@ -9,7 +9,6 @@ import shutil
 import signal
 import subprocess
 import sys
-import threading
 import time
 from types import SimpleNamespace
 
@@ -30,7 +29,6 @@ from vags_jax.policies.catalog import vags_params
 from vags_jax.policies.decision import VagsNets
 from vags_jax import config as C
 from vags_jax.nets.ggcnn import init_ggcnn
-from vags_jax.compile_cache import BACKEND_EVENT
 from vags_jax.stages.stage1 import METRICS, Stage1
 
 from conftest import FAST_PHYSICS, TINY_TEST_OVERRIDES
@@ -83,17 +81,7 @@ def pieces(tmp_path_factory, programs):
     root = tmp_path_factory.mktemp("runs")
     full, split = str(root / "full"), str(root / "split")
     base = ["--config", "tiny", "--chunk", "2", "--checkpoint-every", "1", "--quiet"]
-    compiles = []  # (thread name, program) of every XLA compile or cache load of the full run
-
-    def listen(event, duration, fun_name="", **_):
-        if event == BACKEND_EVENT:
-            compiles.append((threading.current_thread().name, fun_name))
-
-    jax.monitoring.register_event_duration_secs_listener(listen)
-    try:  # the full run compiles stage 2's and the gate table's programs ahead, in threads
-        assert train.main(base + ["--compile-ahead", "on", "--out", full, "--set"] + _overrides(4), programs) == 0
-    finally:
-        jax.monitoring.unregister_event_duration_listener(listen)
+    assert train.main(base + ["--out", full, "--set"] + _overrides(4), programs) == 0
     assert train.main(base + ["--stage", "gdnet", "--out", split, "--set"] + _overrides(2), programs) == 0
     resume = ["--out", split, "--chunk", "2", "--quiet"]
     assert train.main(resume + ["--resume", "--stage", "gdnet", "--set", "stage1.iterations=4"], programs) == 0
@@ -107,7 +95,7 @@ def pieces(tmp_path_factory, programs):
     err = io.StringIO()
     with contextlib.redirect_stderr(err):
         assert train.main(resume + ["--resume", "--set", "stage3.iterations=4"], fresh) == 0
-    return {"full": full, "split": split, "resume_err": err.getvalue(), "full_compiles": compiles}
+    return {"full": full, "split": split, "resume_err": err.getvalue()}
 
 
 @pytest.fixture(scope="module")
@@ -159,9 +147,8 @@ def test_pipeline_resumed_at_stage_boundaries_matches_uninterrupted_run(runs):
         ma = _metrics(os.path.join(full, name, "metrics.jsonl"))
         assert [r["iteration"] for r in ma] == list(range(steps)) and {r["stage"] for r in ma} == {name}
         assert ma == _metrics(os.path.join(split, name, "metrics.jsonl"))
-    with open(os.path.join(full, "timings.jsonl")) as f:  # no GG-CNN trained
-        assert [json.loads(l)["stage"] for l in f] == ["stage1", "compile_ahead", "stage2", "stage3",
-                                                       "compile_ahead_gate", "gate"]
+    with open(os.path.join(full, "timings.jsonl")) as f:
+        assert [json.loads(l)["stage"] for l in f] == ["stage1", "stage2", "stage3", "gate"]  # no GG-CNN trained
     assert not os.path.exists(os.path.join(full, "ggcnn")) and pipeline.load_vags(full).ggcnn is None
 
 
@@ -172,29 +159,11 @@ def _timings(run):
 
 def test_chunks_after_the_first_compile_nothing(runs):
     """Stages 1 and 3 of the pipeline ran 2 chunks each (and the piecewise run resumed twice):
-    no chunk after a segment's first compiled or loaded a program (timings.jsonl counts them; the
-    full run's compile-ahead threads compiled beside stage 1's second chunk, on their own clocks)."""
+    no chunk after a segment's first compiled or loaded a program (timings.jsonl counts them)."""
     for run in runs:
-        # The gate's table is measured in one go; the compile-ahead rows are the threads'.
-        rows = [r for r in _timings(run) if r["stage"] not in ("gate", "compile_ahead", "compile_ahead_gate")]
+        rows = [r for r in _timings(run) if r["stage"] != "gate"]  # the gate's table is measured in one go
         assert rows and all(r["compile"]["recompiled_chunks"] == [] for r in rows), rows
         assert all({"seconds", "compiled", "loaded"} <= r["compile"].keys() for r in rows)
-
-
-def test_compiling_ahead_leaves_stage_2_and_the_gate_table_nothing_large_to_compile(pieces):
-    """The full run compiled ahead (``--compile-ahead on``): stage 2's chunk program and the gate
-    table's step were compiled by the threads, from shapes, and the stages ran those very programs
-    (found in memory): the main thread compiled one chunk program only (stage 1's), and the
-    results are the piecewise run's bit for bit (``test_pipeline_resumed_at_stage_boundaries...``)."""
-    compiles = pieces["full_compiles"]
-    main = [f for t, f in compiles if t == "MainThread"]
-    ahead = [f for t, f in compiles if t == "compile-ahead"]
-    assert main.count("jit(_run_impl)") == 1, main  # stage 1's; stages 2 and 3 run the thread's
-    assert ahead.count("jit(_run_impl)") == 1 and ahead.count("jit(step)") == 1, ahead
-    assert "jit(step)" not in main, main  # the gate table's collect step
-    rows = {r["stage"]: r for r in _timings(pieces["full"])}
-    assert rows["compile_ahead"]["status"] == rows["compile_ahead_gate"]["status"] == "done"
-    assert rows["compile_ahead"]["compile"]["compiled"] >= 1 and rows["compile_ahead_gate"]["compile"]["compiled"] >= 1
 
 
 def test_a_resume_in_a_new_process_loads_its_programs(pieces):

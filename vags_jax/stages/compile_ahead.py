@@ -1,102 +1,145 @@
-"""The next stages' programs compiled in a thread of train.py while a stage trains (``train.py
+"""Stage 2's programs compiled in a second process while stage 1 trains (``train.py
 --compile-ahead``).
 
-Stage 2's chunk program (which stage 3 shares) and the rate gate's table program are the
-pipeline's largest.  Without this, each compiles (or loads from the compile cache) when its
-stage starts, with the accelerator idle meanwhile.  Stage 1 is bound by the accelerator and
-leaves the host's cores mostly free, so once its first chunk has run (its own compiling over,
-Warp's kernels loaded), a thread builds stage 2's program from the shapes of its start; once
-stage 2's (or a resumed stage 3's) first chunk has run, another builds the gate table's.  The
-threads run nothing on the device: the starts are ``jax.eval_shape``'d (``VagsStage.init(...,
-abstract=True)``, ``gate_measure.compile_collect(..., abstract_piles=True)``), and the programs
-are lowered and compiled into the same ``Programs`` the pipeline then runs, so JAX finds them
-in memory and the stage compiles nothing (XLA's compiler does not hold Python's lock, so stage
-1's loop goes on beside it).  The compile cache on disk gets them too, as from any compile.
-The pipeline waits for a thread before the stage that needs its programs.  Whatever happens to
-a thread, the pipeline goes on: if it fails, the stage compiles its own programs as without it
-(one warning line with the error).
+On a machine whose compile cache is empty, the whole pipeline compiles stage 2's chunk program
+(which stage 3 shares) only when stage 2 starts, with the accelerator idle meanwhile.  Stage 1
+is bound by the accelerator and leaves the host's cores mostly free, so once its first chunk
+has run (Warp's kernels then sit in the on-disk cache, and stage 1's own compiling is over) a
+child process, ``python -m vags_jax.stages.precompile --run RUN --stages stage2``, builds stage
+2's start and chunk program into the same compile cache.  Stage 2 then loads them instead of
+compiling.  The child runs stage 2's start for real, so the device needs room for a second copy
+of stage 2's worlds (not its replays, which the child only shapes) beside stage 1; the child
+allocates on demand (``XLA_PYTHON_CLIENT_PREALLOCATE=false``).  Whatever happens to the child, the pipeline goes on:
+if it fails, stage 2 compiles its own programs as without it (one warning line naming the
+child's log, ``RUN/compile_ahead.log``).
+
+The rate gate's table, measured after stage 3, has its own program: a second child
+(``--stages gate``, log ``RUN/compile_ahead_gate.log``) compiles it once stage 2's (or, resumed,
+stage 3's) first chunk has run, and the pipeline waits for it before measuring the table.
 """
 from __future__ import annotations
 
-import threading
+import json
+import os
+import subprocess
+import sys
 import time
-from typing import Callable, Optional
+from typing import Callable, List, Optional
 
-from vags_jax import cli
-from vags_jax.compile_cache import CompileClock
+import jax
+
+from vags_jax import compile_cache
 
 MODES = ("auto", "on", "off")
+LOG_FILE = "compile_ahead.log"
+GATE_LOG_FILE = "compile_ahead_gate.log"
 
 
-def why_not(mode: str, platform: str) -> Optional[str]:
-    """None when the pipeline should compile ahead under ``mode`` (``MODES``), else why not, for
-    the log: "auto" compiles ahead on an accelerator only (on a CPU the thread's compiling would
-    take the cores stage 1 trains on)."""
+def command(run_dir: str, cache_root: str, chunk: Optional[int], stages: str = "stage2") -> List[str]:
+    """The child's command line: ``stages``' programs of ``run_dir``'s config (stage 2's start and
+    chunk program, or "gate": the rate gate's table) into the cache rooted at ``cache_root``;
+    ``chunk``: train.py's --chunk, if given."""
+    argv = [sys.executable, "-m", "vags_jax.stages.precompile", "--run", run_dir, "--stages", stages,
+            "--cache-dir", cache_root, "--json"]
+    return argv + (["--chunk", str(chunk)] if chunk else [])
+
+
+def cache_root(flag: Optional[str]) -> Optional[str]:
+    """The cache directory this process compiles into (``compile_cache``'s layout, ``<root>/jax``)
+    -> its root for the child's --cache-dir, or None when there is no cache to share (it is
+    off, or the caller pointed JAX's own setting elsewhere)."""
+    active = jax.config.jax_compilation_cache_dir
+    root = compile_cache.resolve(flag)
+    if not active or root is None or os.path.abspath(active) != os.path.join(root, "jax"):
+        return None
+    return root
+
+
+def why_not(mode: str, flag: Optional[str], platform: str) -> Optional[str]:
+    """None when stage 2 should compile ahead under ``mode`` (``MODES``), else why not, for the
+    log: "auto" compiles ahead on an accelerator only (on a CPU the child would take the cores
+    stage 1 trains on); both need the compile cache the child writes into."""
     if mode == "off":
         return "off"
+    if cache_root(flag) is None:
+        return ("there is no compile cache of train.py's to share (--cache-dir off, or JAX's cache set elsewhere), "
+                "so the pipeline could not load what a second process compiled")
     if mode == "auto" and platform == "cpu":
         return "on a CPU stage 1 needs the cores (--compile-ahead on forces it)"
     return None
 
 
 class CompileAhead:
-    """``target()`` (compiles programs, -> a report dict) in a thread of its own (module
-    docstring).  ``start()`` launches it (once; later calls do nothing), ``finish()`` waits for it
-    and says how it went -> {"wall_s", "waited_s", "status", "compile" (the thread's
-    ``CompileClock``), "report"?}; ``close()`` says so when the pipeline ends before it (a thread
-    cannot be stopped: it ends with the process).  ``what`` names the programs and ``during`` what
-    trains meanwhile, for the log lines.  ``prepare()``, if given, runs in the thread calling
-    ``start()`` before the thread starts: eager device work the programs' tracing would otherwise
-    do in the thread (the renderer's geometry for a batch size, ``Observation.prepare``)."""
+    """A child process compiling programs ahead (stage 2's or the gate table's; module docstring).  ``start()`` launches it
+    (once; later calls do nothing), ``finish()`` waits for it and says how it went (-> its
+    report: wall time and, when it printed one, ``precompile``'s JSON report), ``close()`` ends
+    it if it still runs (on an error or a stop request).  ``argv`` replaces the command (tests);
+    ``what`` names the programs and ``during`` what trains meanwhile, for the log lines;
+    ``log_file`` is the child's output in ``run_dir``."""
 
-    def __init__(self, target: Callable[[], dict], log: Callable[[str], None] = print,
-                 what: str = "stage 2's programs", during: str = "stage 1 trains",
-                 prepare: Optional[Callable[[], None]] = None):
-        self.target, self.log, self.what, self.during, self.prepare = target, log, what, during, prepare
-        self.thread: Optional[threading.Thread] = None
+    def __init__(self, run_dir: str, argv: List[str], log: Callable[[str], None] = print,
+                 what: str = "stage 2's programs", during: str = "stage 1 trains", log_file: str = LOG_FILE):
+        self.run_dir, self.argv, self.log = run_dir, argv, log
+        self.what, self.during = what, during
+        self.proc: Optional[subprocess.Popen] = None
         self.t0 = 0.0
-        self.wall_s = 0.0
-        self.result: dict = {}
-
-    def _run(self) -> None:
-        try:
-            with CompileClock() as clock:
-                report = self.target()
-            self.result = {"status": "done", "compile": clock.as_dict(), "report": report}
-        except Exception as e:  # noqa: BLE001 -- any failure leaves the stage to compile for itself
-            self.result = {"status": f"error: {type(e).__name__}: {cli.first_line(e, 300)}"}
-        self.wall_s = time.time() - self.t0
+        self.log_path = os.path.join(run_dir, log_file)
 
     def start(self) -> None:
-        if self.thread is not None:
+        if self.proc is not None:
             return
-        if self.prepare is not None:
-            self.prepare()
+        env = {**os.environ, "XLA_PYTHON_CLIENT_PREALLOCATE": "false"}
         self.t0 = time.time()
-        self.thread = threading.Thread(target=self._run, name="compile-ahead", daemon=True)
-        self.thread.start()
-        self.log(f"compile ahead: {self.what} compiling in a thread while {self.during}")
+        try:
+            with open(self.log_path, "w") as out:
+                # Its own session: a Ctrl-C at the terminal reaches train.py only, which ends the child (close).
+                self.proc = subprocess.Popen(self.argv, stdout=out, stderr=subprocess.STDOUT, env=env,
+                                             start_new_session=True)
+        except OSError as e:
+            self.log(f"warning: compile ahead: could not start a second process for {self.what} ({e}); they "
+                     f"compile when needed")
+            return
+        self.log(f"compile ahead: {self.what} compiling in a second process (pid {self.proc.pid}, "
+                 f"log {self.log_path}) while {self.during}")
 
     def finish(self) -> dict:
-        """Waits for the thread (if started) -> {"wall_s", "waited_s", "status", "compile"?, "report"?}."""
-        if self.thread is None:
+        """Waits for the child (if started) -> {"wall_s", "waited_s", "status", "report"?}."""
+        if self.proc is None:
             return {"status": "not started"}
         tw = time.time()
-        if self.thread.is_alive():
-            self.log(f"compile ahead: waiting for the thread to finish {self.what} ...")
-        self.thread.join()
-        got = {"wall_s": round(self.wall_s, 1), "waited_s": round(time.time() - tw, 1), **self.result}
-        if got["status"] == "done":
-            self.log(f"compile ahead: {self.what} ready after {got['wall_s']} s (waited {got['waited_s']} s for "
-                     f"them)")
+        if self.proc.poll() is None:
+            self.log(f"compile ahead: waiting for the second process to finish {self.what} ...")
+        rc = self.proc.wait()
+        got = {"wall_s": round(time.time() - self.t0, 1), "waited_s": round(time.time() - tw, 1),
+               "status": "done" if rc == 0 else f"exit code {rc}"}
+        report = _last_json_line(self.log_path)
+        if report is not None:
+            got["report"] = report
+        if rc == 0:
+            self.log(f"compile ahead: {self.what} ready after {got['wall_s']} s "
+                     f"(waited {got['waited_s']} s for them)")
         else:
-            self.log(f"warning: compile ahead: {self.what} failed ({got['status']}); they compile when needed")
+            self.log(f"warning: compile ahead: the second process ended with exit code {rc} (see "
+                     f"{self.log_path}); {self.what} compile when needed")
         return got
 
     def close(self) -> None:
-        if self.thread is not None and self.thread.is_alive():
-            self.log(f"compile ahead: the pipeline ends before {self.what} compiled; the thread ends with the "
-                     f"process")
+        if self.proc is not None and self.proc.poll() is None:
+            self.proc.terminate()
+            try:
+                self.proc.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait()
 
 
-__all__ = ["MODES", "why_not", "CompileAhead"]
+def _last_json_line(path: str) -> Optional[dict]:
+    try:
+        with open(path) as f:
+            lines = [ln for ln in f.read().splitlines() if ln.startswith("{")]
+        return json.loads(lines[-1]) if lines else None
+    except (OSError, ValueError):
+        return None
+
+
+__all__ = ["MODES", "LOG_FILE", "GATE_LOG_FILE", "command", "cache_root", "why_not", "CompileAhead"]

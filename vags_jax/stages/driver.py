@@ -28,8 +28,8 @@ from vags_jax import cli
 from vags_jax.compile_cache import CompileClock
 from vags_jax.ggcnn import data as ggcnn_data
 from vags_jax.policies import rate_gate
-from vags_jax.stages import (checkpoint, compile_ahead, gate_measure, interrupts, pipeline, precompile, progress,
-                              requests, run_lock, rundir, stage23)
+from vags_jax.stages import (checkpoint, compile_ahead, gate_measure, interrupts, pipeline, progress, requests,
+                              run_lock, rundir, stage23)
 from vags_jax.stages import ggcnn as ggcnn_stage
 from vags_jax.stages import vpg as vpg_stage
 from vags_jax.stages.programs import Programs
@@ -623,16 +623,16 @@ def _pipeline_locked(args, only, plan, programs: Programs, stop, board) -> int:
     deadline = None if args.max_minutes is None else t0 + 60 * args.max_minutes
     summaries, h = [], pipeline.Handover()
     names = rundir.ORDER if only is None else (only,)
-    ahead = _compile_ahead(args, cfg, only, programs)
-    gate_ahead = _compile_gate_ahead(args, cfg, only, programs)
+    ahead = _compile_ahead(args, cfg, only)
+    gate_ahead = _compile_gate_ahead(args, cfg, only)
     deferred: list = []  # stages' last checkpoints, written while the next stage starts
     try:
         return _pipeline_stages(args, only, plan, programs, stop, board, cfg, t0, deadline, summaries, h, names, ahead,
                                 deferred, gate_ahead)
     finally:
-        for thread in (ahead, gate_ahead):
-            if thread is not None:
-                thread.close()
+        for child in (ahead, gate_ahead):
+            if child is not None:
+                child.close()
         with stop.protected():  # a second Ctrl-C must not cut a checkpoint's files
             _finish_saves(deferred)
 
@@ -643,59 +643,50 @@ def _finish_saves(deferred: list) -> None:
         deferred.pop(0).finish()
 
 
-def _finish_ahead(args, ahead: compile_ahead.CompileAhead, row: str) -> None:
-    """Waits for a compile-ahead thread and logs it in timings.jsonl as ``row`` (its wall time,
-    how long the pipeline waited, and what the thread compiled)."""
-    got = ahead.finish()
+def _finish_ahead(args, child: compile_ahead.CompileAhead, row: str, part: str) -> None:
+    """Waits for a compile-ahead child and logs it in timings.jsonl as ``row`` (``part``: the
+    key of its report whose compile counts the row keeps)."""
+    got = child.finish()
     log_timing(args.out, row, 0, 1 if got["status"] == "done" else 0, got.get("wall_s", 0.0), got["status"],
-               got.get("compile"), waited_s=got.get("waited_s", 0.0))
+               (got.get("report") or {}).get(part, {}).get("compile"), waited_s=got.get("waited_s", 0.0))
 
 
-def _ahead_mode(args, cfg) -> Optional[str]:
-    """Why this pipeline compiles nothing ahead (``compile_ahead.why_not``, or one device only),
-    else None."""
+def _compile_ahead(args, cfg, only) -> Optional[compile_ahead.CompileAhead]:
+    """The second process that compiles stage 2's programs while stage 1 trains
+    (``stages.compile_ahead``), when ``--compile-ahead`` and this run call for one: the whole
+    pipeline, stage 1 still to train here and stage 2 not begun.  Says why not, unless off."""
     mode = getattr(args, "compile_ahead", "off")
-    if cfg.parallel.devices > 1:
-        return "data-parallel stage 1"
-    return compile_ahead.why_not(mode, jax.default_backend())
-
-
-def _compile_ahead(args, cfg, only, programs: Programs) -> Optional[compile_ahead.CompileAhead]:
-    """The thread that compiles stage 2's programs while stage 1 trains (``stages.compile_ahead``),
-    when ``--compile-ahead`` and this run call for one: the whole pipeline, stage 1 still to
-    train here and stage 2 not begun.  Says why not with ``--compile-ahead on``."""
-    if (only is not None or not cfg.stage2.iterations
+    if (only is not None or mode == "off" or cfg.parallel.devices > 1 or not cfg.stage2.iterations
             or rundir.progress(args.out, "stage1") >= rundir.total(cfg, "stage1")
             or rundir.progress(args.out, "stage2") > 0):
         return None
-    why = _ahead_mode(args, cfg)
+    why = compile_ahead.why_not(mode, args.cache_dir, jax.default_backend())
     if why is not None:
-        if getattr(args, "compile_ahead", "off") == "on":
+        if mode == "on":
             log(f"compile ahead: not started: {why}")
         return None
-    # GG-CNN's presence is read when the thread starts (after stage 1's first chunk): GG-CNN trains first.
-    target = lambda: precompile.precompile(cfg, ["stage2"], args.chunk, programs=programs, log=lambda m: None,  # noqa: E731
-                                           has_ggcnn=rundir.progress(args.out, "ggcnn") > 0, abstract=True)
-    return compile_ahead.CompileAhead(target, log=log, prepare=lambda: programs.env(cfg).prepare(cfg.stage2.n_worlds))
+    argv = compile_ahead.command(args.out, compile_ahead.cache_root(args.cache_dir), args.chunk)
+    return compile_ahead.CompileAhead(args.out, argv, log=log)
 
 
-def _compile_gate_ahead(args, cfg, only, programs: Programs) -> Optional[compile_ahead.CompileAhead]:
-    """The thread that compiles the rate gate's table program while stage 2 or 3 trains, when
-    ``--compile-ahead`` and this run call for one: the whole pipeline measures the table
+def _compile_gate_ahead(args, cfg, only) -> Optional[compile_ahead.CompileAhead]:
+    """The second process that compiles the rate gate's table program while stage 2 or 3 trains,
+    when ``--compile-ahead`` and this run call for one: the whole pipeline measures the table
     (``gate_table.worlds`` > 0) and stage 3 is still to train here.  Says nothing when not."""
-    if (only is not None or cfg.gate_table.worlds == 0 or not cfg.stage3.iterations
-            or rundir.progress(args.out, "stage3") >= rundir.total(cfg, "stage3") or _ahead_mode(args, cfg) is not None):
+    mode = getattr(args, "compile_ahead", "off")
+    if (only is not None or mode == "off" or cfg.parallel.devices > 1 or cfg.gate_table.worlds == 0
+            or not cfg.stage3.iterations or rundir.progress(args.out, "stage3") >= rundir.total(cfg, "stage3")
+            or compile_ahead.why_not(mode, args.cache_dir, jax.default_backend()) is not None):
         return None
-    target = lambda: precompile.precompile(cfg, ["gate"], programs=programs, log=lambda m: None,  # noqa: E731
-                                           has_ggcnn=rundir.progress(args.out, "ggcnn") > 0, abstract=True)
-    return compile_ahead.CompileAhead(target, log=log, what="the gate table's program", during="stages 2 and 3 train",
-                                      prepare=lambda: programs.env(cfg).prepare(cfg.gate_table.worlds))
+    argv = compile_ahead.command(args.out, compile_ahead.cache_root(args.cache_dir), None, stages="gate")
+    return compile_ahead.CompileAhead(args.out, argv, log=log, what="the gate table's program",
+                                      during="stages 2 and 3 train", log_file=compile_ahead.GATE_LOG_FILE)
 
 
 def _pipeline_stages(args, only, plan, programs, stop, board, cfg, t0, deadline, summaries, h, names, ahead,
                      deferred, gate_ahead=None) -> int:
     """The stages of ``_pipeline_locked`` in order, then the gate's table and the closing summary;
-    ``ahead`` / ``gate_ahead``: the threads compiling stage 2's and the gate's programs, started
+    ``ahead`` / ``gate_ahead``: the children compiling stage 2's and the gate's programs, started
     after stage 1's and after stage 2's (or 3's) first chunk."""
     for name in names:
         done, want = rundir.progress(args.out, name), rundir.total(cfg, name)
@@ -723,7 +714,7 @@ def _pipeline_stages(args, only, plan, programs, stop, board, cfg, t0, deadline,
                 return fail(e)
             arrays, plan.stage1_arrays = (plan.stage1_arrays, None) if name == "stage1" else (None, plan.stage1_arrays)
             if name == "stage2" and ahead is not None:
-                _finish_ahead(args, ahead, "compile_ahead")
+                _finish_ahead(args, ahead, "compile_ahead", "stage2")
             first = ahead.start if name == "stage1" and ahead is not None else (
                 gate_ahead.start if name in ("stage2", "stage3") and gate_ahead is not None else None)
             summary, h = run_stage(cfg, args, name, done, h, deadline, programs, arrays, stop, board, first, deferred)
@@ -743,7 +734,7 @@ def _pipeline_stages(args, only, plan, programs, stop, board, cfg, t0, deadline,
                   file=sys.stderr)
         else:
             if gate_ahead is not None:
-                _finish_ahead(args, gate_ahead, "compile_ahead_gate")
+                _finish_ahead(args, gate_ahead, "compile_ahead_gate", "gate")
             summaries.append(measure_gate(args, cfg, programs))
     with stop.protected():
         _finish_saves(deferred)  # the summary reads each stage's progress from its checkpoints

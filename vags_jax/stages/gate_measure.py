@@ -123,27 +123,23 @@ def _collect_program(cfg, programs: Programs):
     return env, programs.get(programs.cfg_key("gate_collect", cfg), lambda: make_collect(cfg, env, VagsNets(cfg)))
 
 
-def _first_piles(env: VagsEnv, cfg, worlds: int, seed: int, abstract: bool = False):
-    """-> (key, the fresh piles of stage 3's object counts the table starts from); abstract: the
-    piles as ``jax.ShapeDtypeStruct`` leaves, nothing run on the device."""
+def _first_piles(env: VagsEnv, cfg, worlds: int, seed: int):
+    """-> (key, the fresh piles of stage 3's object counts the table starts from)."""
     key = jax.random.PRNGKey(seed)
     k_n, k_reset, key = jax.random.split(key, 3)
-    n_obj = lambda: jax.random.randint(k_n, (worlds,), cfg.stage3.min_objects, cfg.stage3.max_objects + 1)  # noqa: E731
-    if abstract:
-        return key, jax.eval_shape(lambda: env.reset_unchecked(k_reset, n_obj()))
-    return key, env.reset(k_reset, n_obj())
+    n_obj = jax.random.randint(k_n, (worlds,), cfg.stage3.min_objects, cfg.stage3.max_objects + 1)
+    return key, env.reset(k_reset, n_obj)
 
 
-def compile_collect(run_cfg, networks, programs=None, abstract_piles: bool = False) -> None:
+def compile_collect(run_cfg, networks, programs=None) -> None:
     """Compiles (never runs) the table's collect step for a run of config ``run_cfg`` into the
     compile cache, from ``networks`` (``rundir.VagsNetworks``; only their shapes matter, so
     placeholders do): every pick of GDNets runs this one program.  The first piles are reset for
-    real (``gate_table.worlds`` of them), or with ``abstract_piles`` only shaped (nothing runs on
-    the device: ``stages.compile_ahead``'s thread).  ``stages.precompile --stages gate`` calls it."""
+    real (``gate_table.worlds`` of them).  ``stages.precompile --stages gate`` calls it."""
     g = run_cfg.gate_table
     cfg = measure_config(run_cfg)
     env, step = _collect_program(cfg, Programs() if programs is None else programs)
-    key, state = _first_piles(env, cfg, g.worlds or GateTable().worlds, g.seed, abstract_piles)
+    key, state = _first_piles(env, cfg, g.worlds or GateTable().worlds, g.seed)
     step.lower(vags_params(networks, cfg), key, state, jnp.asarray(False)).compile()
 
 

@@ -45,25 +45,20 @@ from vags_jax.stages.programs import Programs
 STAGES = ("stage1", "stage2", "stage3", "gate")  # "gate": the rate gate's table (``stages.gate_measure``)
 
 
-def placeholder_handover(cfg: C.Config, name: str, has_ggcnn: bool = False, abstract: bool = False) -> pipeline.Handover:
+def placeholder_handover(cfg: C.Config, name: str, has_ggcnn: bool = False) -> pipeline.Handover:
     """What stage ``name`` starts from, as zeros of the shapes a run's checkpoints restore (device
-    arrays, as ``checkpoint.restore`` gives them; ``abstract``: ``jax.ShapeDtypeStruct`` leaves,
-    nothing on the device): the previous stages' learners and threshold, and GG-CNN's parameters
-    when the run uses one or holds one (``has_ggcnn``)."""
+    arrays, as ``checkpoint.restore`` gives them): the previous stages' learners and threshold,
+    and GG-CNN's parameters when the run uses one or holds one (``has_ggcnn``)."""
     if name == "stage1":
         return pipeline.Handover()
-    if abstract:
-        dev = lambda tree: jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype), tree)  # noqa: E731
-    else:
-        dev = lambda tree: jax.tree.map(jnp.asarray, tree)  # noqa: E731
-    shapes = ggcnn_stage.abstract_params()
-    gg = (shapes if abstract else jax.tree.map(lambda x: jnp.zeros(x.shape, x.dtype), shapes)) \
+    dev = lambda tree: jax.tree.map(jnp.asarray, tree)  # noqa: E731
+    gg = jax.tree.map(lambda x: jnp.zeros(x.shape, x.dtype), ggcnn_stage.abstract_params()) \
         if rundir.needs_ggcnn(cfg) or has_ggcnn else None
     gd = dev(rundir.learner_target(cfg, "gdnet"))
     if name == "stage2":
         return pipeline.Handover(ggcnn=gg, gdnet=gd)
     return pipeline.Handover(ggcnn=gg, gdnet=gd, vanet=dev(rundir.learner_target(cfg, "vanet")),
-                             success=dev(rundir.learner_target(cfg, "gdnet")), threshold=dev(np.zeros((), np.float32)))
+                             success=dev(rundir.learner_target(cfg, "gdnet")), threshold=jnp.zeros((), jnp.float32))
 
 
 def placeholder_networks(cfg: C.Config, has_ggcnn: bool = False) -> rundir.VagsNetworks:
@@ -79,30 +74,26 @@ def placeholder_networks(cfg: C.Config, has_ggcnn: bool = False) -> rundir.VagsN
                                calibration=dev(np.zeros((3,), np.float32)), source="stage3 step 0")
 
 
-def precompile_gate(cfg: C.Config, programs: Optional[Programs] = None, has_ggcnn: bool = False,
-                    abstract: bool = False) -> None:
-    """The rate gate's table program (``gate_measure.compile_collect``) from placeholder networks
-    (``abstract``: from the shapes of its first piles, none reset on the device)."""
-    gate_measure.compile_collect(cfg, placeholder_networks(cfg, has_ggcnn), programs, abstract_piles=abstract)
+def precompile_gate(cfg: C.Config, programs: Optional[Programs] = None, has_ggcnn: bool = False) -> None:
+    """The rate gate's table program (``gate_measure.compile_collect``) from placeholder networks."""
+    gate_measure.compile_collect(cfg, placeholder_networks(cfg, has_ggcnn), programs)
 
 
 def precompile(cfg: C.Config, names: Sequence[str], chunk: Optional[int] = None,
                programs: Optional[Programs] = None, log: Callable[[str], None] = print,
-               has_ggcnn: bool = False, abstract: bool = False) -> dict:
+               has_ggcnn: bool = False) -> dict:
     """Starts each stage of ``names`` and compiles its chunk program (``chunk`` iterations, else
     ``pipeline.default_chunk`` of the stage's iterations) -> {stage: {"iterations_per_chunk",
     "wall_s", "compile": {"seconds", "compiled", "loaded"}}}.  ``has_ggcnn``: the run holds a
     GG-CNN its stages carry even where they do not use it.  Nothing is trained or written but
-    the compile cache.  ``abstract`` (stages 2, 3 and the gate): the starts are shapes only,
-    nothing runs on the device, so this can run in a thread beside a training
-    (``stages.compile_ahead``), whose ``programs`` then run the compiled programs."""
+    the compile cache."""
     programs = Programs() if programs is None else programs
     report = {}
     for name in names:
         if name == "gate":
             t0 = time.time()
             with CompileClock() as clock:
-                precompile_gate(cfg, programs, has_ggcnn, abstract)
+                precompile_gate(cfg, programs, has_ggcnn)
             report[name] = {"wall_s": round(time.time() - t0, 1), "compile": clock.as_dict()}
             log(f"precompile: the gate table's program ready in {report[name]['wall_s']} s "
                 f"({clock.compiled} compiled, {clock.loaded} loaded from the cache)")
@@ -112,11 +103,8 @@ def precompile(cfg: C.Config, names: Sequence[str], chunk: Optional[int] = None,
         t0 = time.time()
         with CompileClock() as clock:
             stage = programs.stage(name, cfg)
-            if abstract and name == "stage1":
-                raise ValueError("precompile: stage 1's start cannot be shapes only (abstract); compile it for real")
-            start = placeholder_handover(cfg, name, has_ggcnn, abstract)
-            # Replays never allocated: they only shape the program.
-            kw = {} if name == "stage1" else {"abstract": True} if abstract else {"abstract_replays": True}
+            start = placeholder_handover(cfg, name, has_ggcnn)
+            kw = {} if name == "stage1" else {"abstract_replays": True}  # never allocated: they only shape the program
             state = pipeline.stage_fns(name, stage).init(rundir.stage_key(cfg, name), start, **kw)
             stage.compile_chunk(state, n)
         report[name] = {"iterations_per_chunk": n, "wall_s": round(time.time() - t0, 1), "compile": clock.as_dict()}

@@ -32,11 +32,7 @@ class Programs:
         return kind, C.without_iterations(cfg)
 
     def env(self, cfg) -> VagsEnv:
-        """The environment of ``cfg``: configs that differ only where the environment never reads
-        (the decision's ``vags`` and the gate table's settings: the gate's measure config) share
-        one, so the gate table builds no second simulator or renderer."""
-        return self.get(self.cfg_key("env", C.replace(cfg, vags=C.Vags(), gate_table=C.GateTable())),
-                        lambda: VagsEnv(cfg))
+        return self.get(self.cfg_key("env", cfg), lambda: VagsEnv(cfg))
 
     def stage(self, name: str, cfg):
         """The built ``Stage1`` / ``VagsStage`` of ``name`` for ``cfg`` on this process's env

@@ -219,25 +219,14 @@ class VagsStage:
 
     def init(self, key: jax.Array, gdnet: dqn.TrainState, ggcnn_params, vanet: Optional[dqn.TrainState] = None,
              threshold=None, success: Optional[dqn.TrainState] = None,
-             abstract_replays: bool = False, abstract: bool = False) -> VagsTrainState:
+             abstract_replays: bool = False) -> VagsTrainState:
         """Fresh worlds and replays.  gdnet: stage 1's learner (stage 2) or stage 2's (stage 3);
         vanet / success: None for fresh ones (stage 2: VANet from scratch, the success net from
         GDNet's variables) or stage 2's; ggcnn_params: {"params"} of GG-CNN; threshold: the "q"
         gate's threshold (stage 3: stage 2's), or None to calibrate it
         (``calibrated_threshold``) on these first views.  abstract_replays: the two replays as
         ``jax.ShapeDtypeStruct`` leaves, never allocated: a state only to compile the chunk
-        program with (``compile_chunk``; ``stages.precompile``), which cannot run.  abstract:
-        the whole state as ``jax.ShapeDtypeStruct`` leaves, nothing run on the device (the inputs
-        may be such leaves too): for compiling the chunk program in a thread beside a training
-        (``stages.compile_ahead``)."""
-        if abstract:
-            return jax.eval_shape(lambda *a: self._init(*a, abstract_replays=False, traced=True),
-                                  key, gdnet, ggcnn_params, vanet, threshold, success)
-        return self._init(key, gdnet, ggcnn_params, vanet, threshold, success, abstract_replays=abstract_replays)
-
-    def _init(self, key, gdnet, ggcnn_params, vanet, threshold, success, abstract_replays: bool = False,
-              traced: bool = False) -> VagsTrainState:
-        """``init``; traced: under ``jax.eval_shape`` (the scenes' object counts stay on the device)."""
+        program with (``compile_chunk``; ``stages.precompile``), which cannot run."""
         cfg = self.cfg
         key = jnp.asarray(key)
         if jnp.issubdtype(key.dtype, jax.dtypes.prng_key):
@@ -248,9 +237,7 @@ class VagsStage:
             vanet = dqn.create_train_state(initial_variables(k_net, self.vanet, self.view_net_cfg, H, H), cfg.dqn)
         if success is None:
             success = dqn.create_train_state(jax.tree.map(jnp.array, self._vars(gdnet)), cfg.dqn)
-        n_objects = self._n_objects(k_n, self.stage.n_worlds)
-        env_state = (self.env.reset_unchecked(k_env, n_objects) if traced
-                     else self.env.reset(k_env, np.asarray(n_objects)))
+        env_state = self.env.reset(k_env, np.asarray(self._n_objects(k_n, self.stage.n_worlds)))
         gd_grasp, gd_qmax = self._greedy_jit(gdnet, env_state)
         if self.nbv:  # always move: no largest Q exceeds +inf
             threshold = jnp.inf
@@ -465,11 +452,11 @@ def final_threshold(state: VagsTrainState, vcfg: Vags) -> jax.Array:
 
 def _distinct_buffers(tree):
     """``tree`` with a copy of every array that appears in it more than once (a donated
-    argument may hold each buffer once; shape-only leaves are left as they are)."""
+    argument may hold each buffer once)."""
     leaves, treedef = jax.tree.flatten(tree)
     seen, out = set(), []
     for x in leaves:
-        if id(x) in seen and isinstance(x, jax.Array):
+        if id(x) in seen:
             x = jnp.array(x, copy=True)
         seen.add(id(x))
         out.append(x)
