@@ -120,6 +120,18 @@ def tiny_cfg():
 
 
 @pytest.fixture(scope="session")
+def fast_cfg(tiny_cfg):
+    """``tiny_cfg`` on FAST_PHYSICS, for tests that check mechanics, not contacts (the benchmark's
+    tiny run).  Its reset of 2 worlds is the one program the pipeline (``stages/test_stages.py``)
+    and VPG's stage (``stages/test_vpg_stage.py``) compile at the start of the suite, so these
+    tests load it from the session's compile cache instead of compiling the presets' reset again
+    beside ``sim/test_clutter.py`` (which keeps capsules and elliptic cones)."""
+    from vags_jax import config as C
+
+    return C.replace(tiny_cfg, **C.parse_overrides(FAST_PHYSICS))
+
+
+@pytest.fixture(scope="session")
 def programs():
     """The environments, stages and GG-CNN data makers built by train.py in this session
     (``driver.Programs``): pass it to ``train.main(argv, programs)`` to compile each once."""

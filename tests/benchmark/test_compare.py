@@ -12,7 +12,7 @@ from vags_jax.benchmark import metrics as M
 from vags_jax.stages import checkpoint
 from vags_jax import config as C
 
-from conftest import TINY_TEST_OVERRIDES
+from conftest import FAST_PHYSICS, TINY_TEST_OVERRIDES
 
 
 def test_wilson_interval_hand_computed():
@@ -77,9 +77,10 @@ def test_table1_json_and_csv_from_hand_made_reports(tmp_path):
 def test_compare_plays_every_method_on_the_same_scenes(tmp_path, capsys):
     """Two methods, the heuristic by name (with --run's config) and as RUN:heuristic: one
     compiled program (the config and batch of tests/benchmark/test_evaluate.py's tiny run: one
-    round per group, 2 worlds, so a session's compilation cache serves it), and identical rounds,
-    which only the same scenes and seeds give."""
-    cfg = C.replace(C.tiny(), **TINY_TEST_OVERRIDES, **{"benchmark.max_attempts_extra": 1})
+    round per group, 2 worlds, on conftest's FAST_PHYSICS, so a session's compilation cache serves
+    it), and identical rounds, which only the same scenes and seeds give."""
+    cfg = C.replace(C.tiny(), **TINY_TEST_OVERRIDES, **C.parse_overrides(FAST_PHYSICS),
+                    **{"benchmark.max_attempts_extra": 1})
     run = tmp_path / "run"
     run.mkdir()
     checkpoint.save_config(str(run), cfg)

@@ -21,7 +21,7 @@ from vags_jax.env import EnvState
 from vags_jax.nets import init_qnet, make_qnet
 from vags_jax.stages.stage1 import Stage1State
 
-from conftest import TINY_TEST_OVERRIDES
+from conftest import FAST_PHYSICS, TINY_TEST_OVERRIDES
 
 
 def _outcomes(**kw):
@@ -204,10 +204,12 @@ def test_random_and_gdnet_policies_on_maps():
 
 
 @pytest.fixture(scope="module")
-def tiny_eval(tiny_cfg):
+def tiny_eval(fast_cfg):
     # One round per group: a batch of 2 worlds, the size of test_batched_groups_...'s reset, so
-    # that both use one compiled reset of the groups.
-    cfg = C.replace(tiny_cfg, **{"benchmark.max_attempts_extra": 1})
+    # that both use one compiled reset of the groups.  On conftest's FAST_PHYSICS (``fast_cfg``):
+    # that reset is the pipeline's, which the suite compiled already, and the round loop compiles
+    # faster; the checks here are the protocol's (budgets, counts, metrics, seeds), not contacts.
+    cfg = C.replace(fast_cfg, **{"benchmark.max_attempts_extra": 1})
     ev = E.Evaluator(cfg)
     policy = P.make_policy("heuristic", cfg)
     report = E.evaluate(cfg, policy, groups=(1, 2), rounds=1, seed=0, evaluator=ev)
@@ -279,7 +281,7 @@ def test_seeds_write_one_report_per_seed_from_one_compiled_evaluator(tiny_eval, 
         return ev
 
     monkeypatch.setattr(E, "Evaluator", evaluator)
-    sets = [f"{k}={v}" for k, v in {**TINY_TEST_OVERRIDES, "benchmark.max_attempts_extra": 1}.items()]
+    sets = [f"{k}={v}" for k, v in {**TINY_TEST_OVERRIDES, "benchmark.max_attempts_extra": 1}.items()] + FAST_PHYSICS
     out = str(tmp_path / "seed{seed}" / "eval.json")
     assert eval_cli.main(["--config", "tiny", "--policy", "heuristic", "--groups", "1,2", "--rounds", "1",
                           "--seeds", "0,5", "--out", out, "--set"] + sets) == 0
