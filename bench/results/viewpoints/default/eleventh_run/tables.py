@@ -15,9 +15,9 @@ def main():
     cases, gains = [], []
     for s in (11, 12, 13):
         stage2 = find(os.path.join(HERE, "stage2", f"seed{s}"), "eval_vags-no-viewpoint")
-        nv = find(os.path.join(HERE, "..", f"seed{s}"), "eval_vags-no-viewpoint")
+        nv = find(os.path.join(HERE, f"seed{s}"), "eval_vags-no-viewpoint")
         again = find(os.path.join(HERE, "repeat_nv", f"seed{s}"), "eval_vags-no-viewpoint")
-        vags = find(os.path.join(HERE, "..", f"seed{s}"), "eval_vags")
+        vags = find(os.path.join(HERE, f"seed{s}"), "eval_vags")
         cases += [(s, "after stage 2", "`--no-viewpoint`", stage2),
                   (s, "the run's (GDNet of stage 2)", "`--no-viewpoint`", nv),
                   (s, "the run's (GDNet of stage 2)", "`--no-viewpoint`, again", again),
