@@ -16,6 +16,12 @@ child's log, ``RUN/compile_ahead.log``).
 The rate gate's table, measured after stage 3, has its own program: a second child
 (``--stages gate``, log ``RUN/compile_ahead_gate.log``) compiles it once stage 2's (or, resumed,
 stage 3's) first chunk has run, and the pipeline waits for it before measuring the table.
+
+Why a process and not a thread of train.py (which could leave the program in memory and spare
+the stage its load from the cache): XLA work started by another thread of the process breaks
+MuJoCo Warp's CUDA graph capture on XLA's stream ("capturing stream has unjoined work"; both
+pipelines that tried it crashed in stage 1: bench/RESULTS.md, "Compiling ahead in threads ...").
+A child has its own CUDA context.
 """
 from __future__ import annotations
 
