@@ -9,50 +9,15 @@ import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.dirname(os.path.dirname(HERE)))
-from report_tables import branches_table, differences, find, row, table  # noqa: E402
+from report_tables import (branches_table, differences, find, lost_row, lost_table, margin_fits, row,  # noqa: E402
+                           table)
 
 RUNS = (("cold", "run g53 (cold)"), ("warm", "run g53w (warm)"))
 
 
-def lost_row(d):
-    """6-10 objects: attempts, objects lost, lost per attempt over all attempts, over direct
-    attempts (the losses of grasps after a move taken out), and per move."""
-    a = lost = moves = lost_moved = 0
-    for k in range(6, 11):
-        o = d["outcomes"][str(k)]
-        for n, att, s, rem, v, lm in zip(o["n_objects"], o["attempts"], o["successes"], o["remaining"],
-                                          o["viewpoints"], o["lost_after_move"]):
-            a, lost, moves, lost_moved = a + att, lost + n - s - rem, moves + v, lost_moved + lm
-    return a, lost, lost / a, (lost - lost_moved) / (a - moves), (lost_moved / moves if moves else float("nan"))
-
-
-def moved_share(d):
-    """Percent of the attempts on 6-10 objects that moved the camera first."""
-    big = [g for g in d["groups_metrics"] if g["n_objects"] >= 6]
-    return 100 * sum(g["viewpoint_rate"] * g["attempts"] for g in big) / sum(g["attempts"] for g in big)
-
-
-def margin_fits():
-    """Every VAGS evaluation of the twentieth to twenty-second looks against the ablation of its
-    own training and seed: 6-10 margin, moves, motion number; then two least-squares lines."""
-    import numpy as np
-    up = os.path.dirname(HERE)
-    evals = [("twentieth_look", "", "")] + [("twentyfirst_look", v, "") for v in ("", "cap130", "bins16_cap130")] \
-        + [("twentysecond_look", r, r) for r in ("cold", "warm")]
-    rows = []
-    print("\n| look | VAGS | seed | 6-10 margin | 6-10 attempts moved % | motion number |\n|---|---|---:|---:|---:|---:|")
-    for look, sub, ablation in evals:
-        for s in (11, 12, 13):
-            va = find(os.path.join(up, look, sub, f"seed{s}"), "eval_vags")
-            nv = find(os.path.join(up, look, ablation, f"seed{s}"), "eval_vags-no-viewpoint")
-            r = (row(va)[1] - row(nv)[1], moved_share(va), row(va)[3])
-            rows.append(r)
-            print(f"| {look} | {sub or 'run'} | {s} | {r[0]:+.1f} | {r[1]:.1f} | {r[2]:.3f} |")
-    m, moved, mn = np.array(rows).T
-    a, b = np.polyfit(moved, m, 1)
-    c, d = np.polyfit(mn, m, 1)
-    print(f"\nmargin = {a:.3f} x moved % {b:+.2f};  margin = {c:.2f} x motion number {d:+.2f}, "
-          f"{np.polyval([c, d], 1.35):+.2f} at 1.35")
+# The VAGS evaluations of the margin fit: (look, VAGS folder, ablation folder).
+EVALS = [("twentieth_look", "", "")] + [("twentyfirst_look", v, "") for v in ("", "cap130", "bins16_cap130")] \
+    + [("twentysecond_look", r, r) for r in ("cold", "warm")]
 
 
 def main():
@@ -71,13 +36,8 @@ def main():
     table("The default scenes, groups 1-10 x 50 rounds", cases)
     differences("Points, VAGS − ablation", ["success", "6-10 success", "6-10 clearing"], gains)
     branches_table("networks", branches)
-    print("\nObjects that left the table without a grasp, 6-10 objects (250 rounds)\n")
-    print("| seed | networks | policy | attempts | objects lost | per attempt | per direct attempt | per move |")
-    print("|---:|---|---|---:|---:|---:|---:|---:|")
-    for s, nets, policy, (a, lost, per, direct, moved) in losses:
-        print(f"| {s} | {nets} | {policy} | {a} | {lost} | {per:.3f} | {direct:.3f} | "
-              + ("" if moved != moved else f"{moved:.3f}") + " |")
-    margin_fits()
+    lost_table(losses)
+    margin_fits(os.path.dirname(HERE), EVALS)
 
 
 if __name__ == "__main__":
