@@ -156,3 +156,52 @@ def test_the_motion_cap_drops_the_moves_that_add_least_success(tmp_path):
 def test_the_motion_cap_must_be_off_or_a_motion_number(bad):
     with pytest.raises(ValueError, match="max_motion_number must be"):
         C.replace(C.tiny(), **{"vags.max_motion_number": bad})
+
+
+def _success_map():
+    """One world's success map (1, 4 rotations, 4, 4): zeros, with 0.8 at the grasp (rotation 1,
+    row 0, col 1), 0.4 at the same grasp turned half a turn (rotation 3), and 0.9 on rotation 1's
+    cell (1, 1) next to it."""
+    q = np.zeros((1, 4, 4, 4), np.float32)
+    q[0, 1, 0, 1], q[0, 3, 0, 1], q[0, 1, 1, 1] = 0.8, 0.4, 0.9
+    return jnp.asarray(q), jnp.array([[1, 0, 1]], jnp.int32)
+
+
+def test_success_estimates_of_a_grasp_worked_out_by_hand():
+    from vags_jax.policies.decision import success_estimate, success_estimates
+    q, grasp = _success_map()
+    assert float(success_estimate(q, grasp, "grasp")[0]) == pytest.approx(0.8)
+    assert float(success_estimate(q, grasp, "symmetric")[0]) == pytest.approx(0.6)  # (0.8 + 0.4) / 2
+    # "window": the 3 x 3 cells around (0, 1) inside the map are 6 (row 0 is the edge): rotation 1
+    # sums 0.8 + 0.9, rotation 3 sums 0.4 -> (1.7 / 6 + 0.4 / 6) / 2.
+    assert float(success_estimate(q, grasp, "window")[0]) == pytest.approx(2.1 / 12, rel=1e-6)
+    got = {k: float(v[0]) for k, v in success_estimates(q, 2.0 * q, grasp).items()}
+    assert got["p_grasp"] == pytest.approx(0.8) and got["p_best"] == pytest.approx(0.9)
+    assert got["q_direct"] == pytest.approx(1.6)  # GDNet's map (here 2 x q) at the grasp
+    with pytest.raises(ValueError, match="even number of grasp rotations"):
+        success_estimate(q[:, :3], grasp, "symmetric")
+
+
+def test_the_decision_reads_the_configured_estimate():
+    # The same table, two estimates of the one grasp: 0.8 ("grasp") keeps it direct, 0.6
+    # ("symmetric") falls in the bin where a move pays.
+    from vags_jax.policies.decision import decide
+    q, grasp = _success_map()
+    table = jnp.array([[0.7, jnp.inf], [0.2, -0.1]], jnp.float32)
+    qg = jnp.zeros_like(q).at[0, 1, 0, 1].set(1.0)  # GDNet's argmax is the grasp
+    qv = jnp.zeros((1, 4, 4), jnp.float32)
+    assert bool(decide(qg, qv, 0.0, q, "rate", gate_table=table).direct[0])
+    assert not bool(decide(qg, qv, 0.0, q, "rate", gate_table=table, gate_estimate="symmetric").direct[0])
+
+
+def test_a_table_fit_on_another_estimate_says_how_to_evaluate_it():
+    from types import SimpleNamespace
+    from vags_jax.policies.catalog import vags_params
+    cfg = C.replace(C.Config(), **{"vags.gate": "rate"})
+    nets = SimpleNamespace(success=(), ggcnn=None, q_threshold=np.float32(0.0), gdnet=None, vanet=None,
+                           calibration=None, gate_table=np.zeros((2, 1), np.float32), source="stage3 step 8",
+                           gate_estimate="symmetric")
+    with pytest.raises(ValueError, match="--set vags.gate_estimate=symmetric"):
+        vags_params(nets, cfg)
+    with pytest.raises(ValueError, match="vags.gate_estimate must be one of"):
+        C.replace(C.Config(), **{"vags.gate_estimate": "mean"})

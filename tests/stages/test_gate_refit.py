@@ -46,7 +46,7 @@ def test_refit_bins_the_saved_states_again_and_keeps_the_networks(tmp_path, caps
     assert d["rate"] == pytest.approx(1 / 11, rel=1e-6)
     assert d["move_value"] == pytest.approx([1.0 - 2 / 11, -0.25 - 2 / 11], rel=1e-6)
     assert {k: d[k] for k in META} == META  # the networks it was measured on, so eval.py still loads it
-    assert d["refit"] == {"bins": 2, "from_bins": 1}
+    assert d["refit"] == {"bins": 2, "from_bins": 1, "from_estimate": "grasp"} and d["estimate"] == "grasp"
     assert rate_gate.load_table(run, META["networks"], META["gdnet"], META["close_gdnet"]) is not None
 
 
@@ -79,3 +79,29 @@ def test_refit_without_saved_states_names_the_measuring_command(tmp_path, capsys
     assert "gate_states.npz" in err and f"--run {run}" in err
     with open(os.path.join(run, rate_gate.GATE_FILE)) as f:
         assert len(json.load(f)["states"]) == 1  # untouched
+
+
+def test_refit_on_another_estimate_bins_that_column_and_records_it(tmp_path):
+    """--estimate symmetric bins the states' p_symmetric (here the reverse order of p_direct), so
+    the two bins hold other states than with p_direct; the saved states' p_direct becomes it."""
+    run = _run_with_states(tmp_path)
+    path = os.path.join(run, gate_measure.STATES_FILE)
+    with np.load(path) as f:
+        states = {k: f[k] for k in f.files}
+    states["p_symmetric"] = 1.0 - states["p_direct"]  # the direct failures now rank highest
+    np.savez(path, **states)
+    assert gate_measure.main(["--run", run, "--refit", "--bins", "2", "--estimate", "symmetric"]) == 0
+    d = rate_gate.read(run)
+    assert d["estimate"] == "symmetric" and d["refit"]["from_estimate"] == "grasp"
+    assert d["edges"] == pytest.approx([0.55])
+    assert d["direct"] == pytest.approx([1.0, 0.0]) and d["moved"] == pytest.approx([0.75, 1.0])
+    assert rate_gate.estimate_of(run) == "symmetric"
+    with np.load(path) as f:
+        np.testing.assert_array_equal(f["p_direct"], states["p_symmetric"])
+
+
+def test_refit_on_an_estimate_the_states_lack_names_the_measuring_command(tmp_path, capsys):
+    run = _run_with_states(tmp_path)  # states from before the other estimates were recorded
+    assert gate_measure.main(["--run", run, "--refit", "--bins", "2", "--estimate", "window"]) == 2
+    err = capsys.readouterr().err
+    assert "no 'window' estimates" in err and f"--run {run} --estimate window" in err

@@ -492,6 +492,12 @@ def test_the_pipeline_measures_the_rate_gate_table_that_eval_plays(runs, tmp_pat
     assert rows["p_direct"].shape == rows["objects"].shape == (t["live_states"],)
     assert ((rows["direct_lost"] >= 0) & (rows["moved_lost"] >= 0)).all()
     assert ((rows["objects"] >= 1) & (rows["objects"] <= t["objects"][1])).all()
+    # Every success estimate is recorded beside the one the table bins (the run's, "grasp"); the
+    # success net's largest value anywhere is at least its value at GDNet's grasp.
+    assert t["estimate"] == "grasp"
+    np.testing.assert_array_equal(rows["p_grasp"], rows["p_direct"])
+    assert all(rows[k].shape == rows["p_direct"].shape for k in ("p_symmetric", "p_window", "p_best", "q_direct"))
+    assert (rows["p_best"] >= rows["p_grasp"]).all()
     refit = rate_gate.fit(rows["p_direct"], rows["direct_success"], rows["direct_seconds"], rows["moved_success"],
                           rows["moved_seconds"], 2, lost_direct=rows["direct_lost"], lost_moved=rows["moved_lost"])
     assert refit.move_value == pytest.approx(tuple(t["move_value"])) and refit.lost_moved == pytest.approx(tuple(t["lost_moved"]))

@@ -20,7 +20,7 @@ from vags_jax.config.sections import (MAX_HEIGHTMAP_PX, MAX_IMAGE_SIDE, MAX_WORL
                                       OBJECT_SETS, object_pool, PLACEMENTS, EDGE_SCENES,
                                       LEGACY_SCENES, Scene, Sim, Grasp, DepthNoise, Camera, Net,
                                       DQN, Replay, Exploration, Stage, VAGS_LOCAL_PLANNERS,
-                                      VAGS_GATES, VAGS_VIEW_REWARDS, VAGS_VIEW_ESTIMATES, VAGS_VIEWPOINTS, VAGS_STAGE3_GDNET, VAGS_STAGE3_GDNET_PICKS, VAGS_CLOSE_REGIONS, Vags, GGCNN_SIZE_MULTIPLE,
+                                      VAGS_GATES, VAGS_VIEW_REWARDS, VAGS_VIEW_ESTIMATES, VAGS_VIEWPOINTS, VAGS_STAGE3_GDNET, VAGS_STAGE3_GDNET_PICKS, VAGS_CLOSE_REGIONS, VAGS_GATE_ESTIMATES, Vags, GGCNN_SIZE_MULTIPLE,
                                       GGCNN_ROTATIONS, GGCNN_LABELS, GGCNNConfig, GGCNNData,
                                       Benchmark, Mvp, Push, Vpg, Parallel, GateTable, Config, benchmark_groups, check_vpg_fits,
                                       ggcnn_object_range)

@@ -648,6 +648,7 @@ VAGS_VIEWPOINTS = ("vanet", "grasp")
 VAGS_STAGE3_GDNET = ("all", "direct", "frozen")
 VAGS_STAGE3_GDNET_PICKS = ("rate", "last")
 VAGS_CLOSE_REGIONS = ("seen", "map")
+VAGS_GATE_ESTIMATES = ("grasp", "symmetric", "window")
 
 
 @dataclass(frozen=True)
@@ -705,6 +706,12 @@ class Vags:
       the cells the close view saw (anywhere if it saw none); "map": its argmax anywhere on the
       fused maps, so a move can only add grasps (bench/RESULTS.md, "sixteenth look": worse on the
       sixth run, 86.0-87.8 % against 88.0-88.7 % with "seen").
+    gate_estimate: the success net's estimate of GDNet's grasp that the "success" and "rate"
+      gates read at evaluation (``decision.success_estimate``; stage 3's training gate reads
+      "grasp").  "grasp": its value at the grasp; "symmetric": the mean with the value at the
+      same grasp turned half a turn; "window": the mean over both rotations and the 3 x 3 cells
+      around the grasp.  The rate gate's table is fit on this estimate and records it
+      (RUN/gate.json "estimate"); a run is evaluated with the estimate its table was fit on.
     max_motion_number: a cap on the "rate" gate's moves (0: none).  The gate moves in the bins
       of its table where a move raises the picks per hour; with a cap it drops moving bins,
       the smallest success gain first, until the motion number its table predicts (motions per
@@ -734,6 +741,7 @@ class Vags:
     close_region: str = "seen"
     max_motion_number: float = 0.0
     train_ggcnn: bool = False
+    gate_estimate: str = "grasp"
 
     def __post_init__(self):
         _check(self.local_planner in VAGS_LOCAL_PLANNERS,
@@ -749,6 +757,8 @@ class Vags:
                f"Vags.stage3_gdnet_pick must be one of {VAGS_STAGE3_GDNET_PICKS}, got {self.stage3_gdnet_pick!r}")
         _check(self.close_region in VAGS_CLOSE_REGIONS,
                f"Vags.close_region must be one of {VAGS_CLOSE_REGIONS}, got {self.close_region!r}")
+        _check(self.gate_estimate in VAGS_GATE_ESTIMATES,
+               f"Vags.gate_estimate must be one of {VAGS_GATE_ESTIMATES}, got {self.gate_estimate!r}")
         _check(self.view_reward in VAGS_VIEW_REWARDS,
                f"Vags.view_reward must be one of {VAGS_VIEW_REWARDS}, got {self.view_reward!r}")
         if self.threshold is not None:

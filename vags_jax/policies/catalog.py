@@ -174,6 +174,14 @@ def vags_params(networks, cfg: Config, threshold=None) -> dict:
                          f"in RUN/gate.json, and the run has none for them: measure it with "
                          f"python -m vags_jax.stages.gate_measure --run RUN (it measures the run's latest "
                          f"networks), or evaluate with --set vags.gate=success")
+    table_estimate = getattr(networks, "gate_estimate", "grasp")
+    if cfg.vags.gate == "rate" and networks.gate_table is not None and not ablation and (
+            table_estimate != cfg.vags.gate_estimate):
+        raise ValueError(f"the run's gate table (RUN/gate.json) was fit on the success net's {table_estimate!r} "
+                         f"estimate, and this config reads {cfg.vags.gate_estimate!r}: evaluate with --set "
+                         f"vags.gate_estimate={table_estimate}, or fit the table on the other estimate with "
+                         f"python -m vags_jax.stages.gate_measure --run RUN --refit --bins K "
+                         f"--estimate {cfg.vags.gate_estimate}")
     if cfg.vags.local_planner == "ggcnn" and networks.ggcnn is None:
         raise ValueError("vags.local_planner=ggcnn needs a GG-CNN in the run (RUN/ggcnn): train one with "
                          "python train.py --stage ggcnn --out RUN")

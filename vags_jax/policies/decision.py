@@ -33,6 +33,7 @@ from flax import struct
 from vags_jax import batching
 from vags_jax.perception import view_fusion
 from vags_jax.config import Config, Vags
+from vags_jax.config.sections import VAGS_GATE_ESTIMATES as GATE_ESTIMATES
 from vags_jax.ggcnn.planner import predict_grasp
 from vags_jax.policies import rate_gate
 from vags_jax.nets import make_qnet
@@ -82,6 +83,53 @@ def value_at(q: jax.Array, action: jax.Array) -> jax.Array:
     """q (B, R, H, W) at action (B, 3) [rotation, row, col] -> (B,) float32."""
     b = jnp.arange(q.shape[0])
     return q[b, action[:, 0], action[:, 1], action[:, 2]].astype(jnp.float32)
+
+
+def _symmetric_rotation(q: jax.Array, grasp: jax.Array) -> jax.Array:
+    """(B,) int32 the rotation of the same parallel-jaw grasp turned half a turn: (r + R/2) % R."""
+    n_rot = q.shape[1]
+    if n_rot % 2:
+        raise ValueError(f"a symmetric success estimate needs an even number of grasp rotations (the grasp "
+                         f"turned half a turn is one of them), got {n_rot}: use vags.gate_estimate=grasp")
+    return (grasp[:, 0] + n_rot // 2) % n_rot
+
+
+def _window_mean(q: jax.Array, rotation: jax.Array, row: jax.Array, col: jax.Array, radius: int) -> jax.Array:
+    """The mean of q (B, R, H, W) at ``rotation`` (B,) over the cells within ``radius`` of
+    (row, col) (B,) each, cells off the map left out -> (B,) float32."""
+    b, _, h, w = q.shape
+    qr = q[jnp.arange(b), rotation].astype(jnp.float32)  # (B, H, W)
+    rows, cols = jnp.arange(h)[None, :, None], jnp.arange(w)[None, None, :]
+    near = (jnp.abs(rows - row[:, None, None]) <= radius) & (jnp.abs(cols - col[:, None, None]) <= radius)
+    return jnp.where(near, qr, 0.0).sum(axis=(1, 2)) / near.sum(axis=(1, 2))
+
+
+def success_estimate(q_success: jax.Array, grasp: jax.Array, estimate: str = "grasp") -> jax.Array:
+    """The success net's estimate (B,) float32 of grasp (B, 3) [rotation, row, col] from its map
+    q_success (B, R, H, W) (``config.Vags.gate_estimate``): "grasp", its value at the grasp;
+    "symmetric", the mean with the value at the grasp turned half a turn (the same grasp of a
+    parallel-jaw gripper, seen by the network on a heightmap rotated 180 degrees more);
+    "window", the mean over both rotations and the 3 x 3 cells around the grasp."""
+    if estimate == "grasp":
+        return value_at(q_success, grasp)
+    flipped = _symmetric_rotation(q_success, grasp)
+    if estimate == "symmetric":
+        return 0.5 * (value_at(q_success, grasp) + value_at(q_success, grasp.at[:, 0].set(flipped)))
+    if estimate == "window":
+        row, col = grasp[:, 1], grasp[:, 2]
+        return 0.5 * (_window_mean(q_success, grasp[:, 0], row, col, 1) + _window_mean(q_success, flipped, row, col, 1))
+    raise ValueError(f"unknown success estimate {estimate!r}: one of {GATE_ESTIMATES}")
+
+
+def success_estimates(q_success: jax.Array, q_grasp: jax.Array, grasp: jax.Array) -> dict:
+    """Every estimate of grasp (B, 3) for analysis (``stages.gate_measure`` records them):
+    ``p_<estimate>`` for each of ``GATE_ESTIMATES`` (``success_estimate``), ``p_best`` the
+    success net's largest value anywhere (B,), ``q_direct`` GDNet's Q (B,) at the grasp, from
+    q_success / q_grasp (B, R, H, W)."""
+    out = {f"p_{e}": success_estimate(q_success, grasp, e) for e in GATE_ESTIMATES}
+    out["p_best"] = jnp.max(q_success.reshape(q_success.shape[0], -1), axis=1).astype(jnp.float32)
+    out["q_direct"] = value_at(q_grasp, grasp)
+    return out
 
 
 def gate_score(gate: str, q_max: jax.Array, p_direct: Optional[jax.Array], p_view: Optional[jax.Array],
@@ -156,10 +204,12 @@ def _check_maps(q_grasp, q_view) -> None:
 
 def decide(q_grasp: jax.Array, q_view: jax.Array, threshold, q_success: Optional[jax.Array] = None,
            gate: str = "q", calibration: Optional[jax.Array] = None, view_estimate: str = "vanet",
-           viewpoint: str = "vanet", gate_table: Optional[jax.Array] = None) -> Decision:
+           viewpoint: str = "vanet", gate_table: Optional[jax.Array] = None,
+           gate_estimate: str = "grasp") -> Decision:
     """The decision on Q maps: q_grasp (B, R, H, W), q_view (B, H, W), threshold scalar (or
     (B,)), q_success (B, R, H, W), calibration (3,) and view_estimate for the "success" gate
-    (``gate_score``), gate_table (2, K) for the "rate" gate; grasp directly where the gate's
+    (``gate_score``), gate_table (2, K) for the "rate" gate; p_direct is the success net's
+    ``gate_estimate`` of GDNet's argmax (``success_estimate``); grasp directly where the gate's
     score exceeds ``threshold``.  The view is
     VANet's argmax cell, or GDNet's with ``viewpoint="grasp"`` (``config.Vags.viewpoint``)."""
     _check_maps(q_grasp, q_view)
@@ -167,7 +217,7 @@ def decide(q_grasp: jax.Array, q_view: jax.Array, threshold, q_success: Optional
     view, v_max = greedy(q_view)
     if viewpoint == "grasp":
         view = grasp[:, 1:]
-    p_direct = None if q_success is None else value_at(q_success, grasp)
+    p_direct = None if q_success is None else success_estimate(q_success, grasp, gate_estimate)
     score = gate_score(gate, q_max, p_direct, v_max, calibration, view_estimate, gate_table)
     return Decision(direct=score > threshold, grasp=grasp, view=view, q_max=q_max, score=score)
 
@@ -269,7 +319,7 @@ class VagsNets:
         q_grasp, q_view, q_success = self.q_maps(params, state.color, state.height)
         decision = decide(q_grasp, q_view, params["threshold"], q_success, self.cfg.vags.gate,
                           params.get("calibration"), self.cfg.vags.view_estimate, self.cfg.vags.viewpoint,
-                          params.get("gate_table"))
+                          params.get("gate_table"), self.cfg.vags.gate_estimate)
         return decision, q_grasp, q_view
 
     def plan(self, params: dict, key, env: VagsEnv, state: EnvState):
@@ -280,7 +330,8 @@ class VagsNets:
         return attempt, decision, close, q_grasp, q_view
 
 
-__all__ = ["Decision", "CloseView", "greedy", "value_at", "gate_score", "update_calibration", "initial_calibration",
+__all__ = ["Decision", "CloseView", "greedy", "value_at", "GATE_ESTIMATES", "success_estimate", "success_estimates",
+           "gate_score", "update_calibration", "initial_calibration",
            "gate_threshold", "decide",
            "fused_grasp",
            "close_view_grasp", "plan_attempt", "VagsNets"]

@@ -204,6 +204,13 @@ def load_table(run_dir: str, networks: Optional[str] = None, gdnet: Optional[str
     return capped(from_dict(d), max_motion_number)
 
 
+def estimate_of(run_dir: str) -> str:
+    """The success estimate (``config.Vags.gate_estimate``) RUN/gate.json was fit on: its
+    "estimate", "grasp" in tables from before it was recorded."""
+    d = read(run_dir)
+    return "grasp" if d is None else str(d.get("estimate", "grasp"))
+
+
 def from_dict(d: dict) -> GateTable:
     """A gate.json's contents -> its ``GateTable`` (the table's fields; the meta is dropped)."""
     fields = {f.name for f in dataclasses.fields(GateTable)}

@@ -141,7 +141,8 @@ class FramePolicy:
                                     q_threshold=np.float32(0.0), gdnet=None, vanet=None,
                                     calibration=(np.zeros(checkpoint.part_shapes(d, s, "calibration")[0], np.float32)
                                                  if "calibration" in parts else None),
-                                    gate_table=rate_gate.load(run_dir, source), source=source), cfg)
+                                    gate_table=rate_gate.load(run_dir, source), source=source,
+                                    gate_estimate=rate_gate.estimate_of(run_dir)), cfg)
         if cfg.vags.local_planner == "ggcnn":
             self.ggcnn_camera = checkpoint.load_config(ggcnn_dir(run_dir)).camera
         networks = rundir.load_vags(run_dir, cfg, s)
@@ -278,12 +279,13 @@ def _global_program(params, depth, rgb, pose, *, cfg, cam, gdnet_only):
     else:
         q_grasp, q_view, q_success = nets.q_maps(params, color, height)
         d = decision.decide(q_grasp, q_view, params["threshold"], q_success, cfg.vags.gate, params.get("calibration"),
-                            cfg.vags.view_estimate, cfg.vags.viewpoint, params.get("gate_table"))
+                            cfg.vags.view_estimate, cfg.vags.viewpoint, params.get("gate_table"),
+                            cfg.vags.gate_estimate)
         _, p_view = decision.greedy(q_view)
         out.update(grasp=d.grasp, q_max=d.q_max, score=d.score, direct=d.direct, view=d.view, p_view=p_view,
                    view_pose=camera.viewpoint_pose(d.view, height, cfg.workspace, cfg.camera))
         if q_success is not None:
-            out["p_direct"] = decision.value_at(q_success, d.grasp)
+            out["p_direct"] = decision.success_estimate(q_success, d.grasp, cfg.vags.gate_estimate)
     out["position"], out["yaw"] = grasp_pose(cfg, height, out["grasp"][:, 1:], out["grasp"][:, 0])
     return out
 

@@ -45,7 +45,8 @@ from vags_jax.config import GateTable, replace
 from vags_jax.env import VagsEnv, where_worlds
 from vags_jax.policies import rate_gate
 from vags_jax.policies.catalog import vags_params
-from vags_jax.policies.decision import VagsNets, close_view_grasp, decide, value_at
+from vags_jax.policies.decision import (GATE_ESTIMATES, VagsNets, close_view_grasp, decide, success_estimate,
+                                        success_estimates)
 from vags_jax.stages import checkpoint, rundir
 from vags_jax.stages.programs import Programs
 
@@ -56,7 +57,9 @@ FOLLOW = ("direct", "moved")  # the branch the piles follow from one measured st
 
 def make_collect(cfg, env: VagsEnv, nets: VagsNets):
     """-> jitted ``(params, key, state, follow_moved) -> (next state, per-world dict of (B,) arrays)``:
-    ``p_direct`` the success net's raw estimate at GDNet's argmax; for each branch ("direct",
+    ``p_direct`` the success net's estimate of GDNet's argmax (``vags.gate_estimate``), and
+    every other estimate and GDNet's Q there (``decision.success_estimates``: ``p_<estimate>``,
+    ``p_best``, ``q_direct``) for analysis; for each branch ("direct",
     "moved") its ``success``, ``lost`` (objects that left the table without a grasp),
     ``motions``, ``travel`` (m, camera move + approach + descend + lift) and ``back`` (m, the
     return to the global pose after a failure); ``objects`` (int32) on the table before the
@@ -84,7 +87,8 @@ def make_collect(cfg, env: VagsEnv, nets: VagsNets):
                                     params.get("ggcnn"), nets.ggcnn)
         after_direct, rows_direct = branch("direct", state, direct)
         after_moved, rows_moved = branch("moved", state, moved)
-        out = {"p_direct": value_at(q_success, d.grasp),
+        out = {"p_direct": success_estimate(q_success, d.grasp, cfg.vags.gate_estimate),
+               **success_estimates(q_success, q_grasp, d.grasp),
                "objects": env.n_remaining(state), "live": (env.n_remaining(state) > 0) & ~state.sim.error,
                **rows_direct, **rows_moved}
         followed = where_worlds(jnp.broadcast_to(follow_moved, (state.n_worlds,)), after_moved, after_direct)
@@ -99,10 +103,14 @@ def seconds(rows: dict, name: str, time_model: MotionTimeModel) -> np.ndarray:
                                     rows[f"{name}_travel"], rows[f"{name}_back"])
 
 
-def measure_config(run_cfg):
+def measure_config(run_cfg, estimate: Optional[str] = None):
     """The config the table is measured under: the run's, with the gate's inputs as the "success"
-    gate reads them (the raw success net and VANet's viewpoint)."""
-    return replace(run_cfg, **{"vags.gate": "success", "vags.view_estimate": "vanet"})
+    gate reads them (the raw success net and VANet's viewpoint), and p_direct the success net's
+    ``estimate`` (None: the run's ``vags.gate_estimate``)."""
+    over = {"vags.gate": "success", "vags.view_estimate": "vanet"}
+    if estimate is not None:
+        over["vags.gate_estimate"] = estimate
+    return replace(run_cfg, **over)
 
 
 def due(run_dir: str, cfg, stage3_finished: Optional[bool] = None) -> bool:
@@ -144,7 +152,7 @@ def compile_collect(run_cfg, networks, programs=None) -> None:
 
 
 def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=print, programs=None,
-            count_lost=None, gdnet="stage3", follow="direct"):
+            count_lost=None, gdnet="stage3", follow="direct", estimate=None):
     """The gate table of a trained run (stage 3's networks, else stage 2's) -> (GateTable, meta,
     states): ``states`` the (N,) per-state arrays of the live states the table was fit on, with
     each state's ``world`` and ``attempt`` (its index along the pile).
@@ -152,7 +160,9 @@ def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=pri
     ``programs.Programs`` whose compiled collect step is reused (train.py's pipeline); gdnet:
     the GDNets of stage 3's networks (``rundir.GDNET_PICKS``: "stage2" grasps with stage 2's,
     "split" directly with stage 2's and after a move with stage 3's); follow: the branch the
-    piles follow between attempts (``FOLLOW``; "moved" makes a diagnostic, not the gate's table)."""
+    piles follow between attempts (``FOLLOW``; "moved" makes a diagnostic, not the gate's table);
+    estimate: the success estimate the table bins (``config.Vags.gate_estimate``; None: the
+    run's), recorded as meta["estimate"]."""
     if follow not in FOLLOW:
         raise ValueError(f"follow must be one of {FOLLOW}, got {follow!r}")
     run_cfg = checkpoint.load_config(run_dir)
@@ -160,7 +170,7 @@ def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=pri
     worlds, steps = worlds or g.worlds or GateTable().worlds, steps or g.steps
     bins, seed = bins or g.bins, g.seed if seed is None else seed
     count_lost = g.count_lost if count_lost is None else count_lost
-    cfg = measure_config(run_cfg)
+    cfg = measure_config(run_cfg, estimate)
     networks = rundir.load_vags(run_dir, cfg, gdnet=gdnet)
     params = vags_params(networks, cfg)  # ValueError without a success net
     stage = cfg.stage3
@@ -187,11 +197,12 @@ def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=pri
             "worlds": worlds, "steps": steps, "seed": seed,
             "objects": [stage.min_objects, stage.max_objects], "live_states": int(live.sum()),
             "viewpoint": cfg.vags.viewpoint, "local_planner": cfg.vags.local_planner,
-            "close_region": cfg.vags.close_region, "follow": follow,
+            "close_region": cfg.vags.close_region, "follow": follow, "estimate": cfg.vags.gate_estimate,
             "lost": rate_gate.paired_lost(table, rows["p_direct"], rows["direct_lost"], rows["moved_lost"]),
             "wall_s": round(time.time() - t0, 1), "device": str(jax.devices()[0])}
     states = {k: rows[k] for k in ("p_direct", "direct_success", "moved_success", "direct_lost", "moved_lost",
-                                   "direct_seconds", "moved_seconds", "objects", "world", "attempt")}
+                                   "direct_seconds", "moved_seconds", "objects", "world", "attempt", "p_best",
+                                   "q_direct", *(f"p_{e}" for e in GATE_ESTIMATES))}
     return table, meta, states
 
 
@@ -262,10 +273,12 @@ def measure_into(run_dir: str, log=print, programs=None, **kw):
     return save_all(run_dir, table, meta, states), table, meta
 
 
-def refit(run_dir: str, bins: int):
+def refit(run_dir: str, bins: int, estimate: Optional[str] = None):
     """RUN/gate.json fitted again from the states it was measured on (RUN/gate_states.npz, no
-    simulation) over ``bins`` quantile bins, keeping its networks and other settings -> (GateTable,
-    meta, states), for ``save_all``.  ValueError when the run has no table or no saved states."""
+    simulation) over ``bins`` quantile bins of the success net's ``estimate`` (None: the one the
+    table was fit on), keeping its networks and other settings -> (GateTable, meta, states), for
+    ``save_all``; the states' p_direct becomes that estimate.  ValueError when the run has no
+    table or no saved states, or states measured before that estimate was recorded."""
     d = rate_gate.read(run_dir)
     path = os.path.join(run_dir, STATES_FILE)
     if d is None or not os.path.isfile(path):
@@ -273,6 +286,13 @@ def refit(run_dir: str, bins: int):
                          f"again; measure one first: {PROG} --run {run_dir}")
     with np.load(path) as f:
         states = {k: f[k] for k in f.files}
+    was = str(d.get("estimate", "grasp"))
+    estimate = was if estimate is None else estimate
+    if estimate != was:
+        if f"p_{estimate}" not in states:
+            raise ValueError(f"{path} holds no '{estimate}' estimates (measured before they were recorded): "
+                             f"measure the table again with {PROG} --run {run_dir} --estimate {estimate}")
+        states = {**states, "p_direct": states[f"p_{estimate}"]}
     old = rate_gate.from_dict(d)
     table = rate_gate.fit(states["p_direct"], states["direct_success"], states["direct_seconds"],
                           states["moved_success"], states["moved_seconds"], bins, lost_direct=states["direct_lost"],
@@ -280,7 +300,8 @@ def refit(run_dir: str, bins: int):
     fields = {f.name for f in dataclasses.fields(rate_gate.GateTable)}
     meta = {k: v for k, v in d.items() if k not in fields}
     meta["lost"] = rate_gate.paired_lost(table, states["p_direct"], states["direct_lost"], states["moved_lost"])
-    meta["refit"] = {"bins": bins, "from_bins": len(old.states)}
+    meta["refit"] = {"bins": bins, "from_bins": len(old.states), "from_estimate": was}
+    meta["estimate"] = estimate
     return table, meta, states
 
 
@@ -307,11 +328,15 @@ def main(argv=None) -> int:
     p.add_argument("--refit", action="store_true",
                    help="no simulation: fit the run's table again from the states it was measured on "
                    "(RUN/gate_states.npz), over --bins bins, keeping its networks (seconds, not minutes)")
+    p.add_argument("--estimate", choices=GATE_ESTIMATES, default=None,
+                   help="the success net's estimate of GDNet's grasp the table bins (default: the run's "
+                   "vags.gate_estimate; with --refit: the one the table was fit on); evaluate such a table "
+                   "with --set vags.gate_estimate=...")
     args = p.parse_args(argv)
     if args.refit and (args.bins is None or any(getattr(args, n) is not None for n in ("worlds", "steps", "seed",
                                                                                       "count_lost", "gdnet"))
                        or args.follow != "direct"):
-        print(f"{PROG}: --refit fits the measured states again: it takes --bins (and --out) only", file=sys.stderr)
+        print(f"{PROG}: --refit fits the measured states again: it takes --bins (and --out, --estimate) only", file=sys.stderr)
         return 2
     if args.follow == "moved" and args.out is None:
         print(f"{PROG}: --follow moved measures a diagnostic, not the gate's table: give --out DIR for it "
@@ -322,10 +347,10 @@ def main(argv=None) -> int:
             print(f"{PROG}: --{name} must be at least 1, got {getattr(args, name)}", file=sys.stderr)
             return 2
     kw = dict(log=lambda m: print(m, file=sys.stderr, flush=True), worlds=args.worlds, steps=args.steps,
-              bins=args.bins, seed=args.seed, count_lost=args.count_lost, follow=args.follow)
+              bins=args.bins, seed=args.seed, count_lost=args.count_lost, follow=args.follow, estimate=args.estimate)
     try:
         if args.refit:
-            table, meta, states = refit(args.run, args.bins)
+            table, meta, states = refit(args.run, args.bins, args.estimate)
         elif args.gdnet is None:
             table, meta, states = measure_picked(args.run, **kw)
         else:

@@ -170,6 +170,7 @@ class VagsNetworks:
     source: str = struct.field(pytree_node=False, default="")
     gdnet_source: str = struct.field(pytree_node=False, default="")  # GDNet's ("stage2 step N" where picked)
     close_gdnet_source: str = struct.field(pytree_node=False, default="")  # close_gdnet's; "" without one
+    gate_estimate: str = struct.field(pytree_node=False, default="grasp")  # the estimate gate_table was fit on
 
     @property
     def close_source(self) -> str:
@@ -261,10 +262,11 @@ def load_vags(run_dir: str, cfg: Optional[Config] = None, step: Optional[int] = 
     gg = None
     if os.path.isdir(ggcnn_stage.ggcnn_dir(run_dir)):
         gg, _ = ggcnn_stage.load_ggcnn(run_dir)
+    table = rate_gate.load(run_dir, source, gd_source, close_source or gd_source, cfg.vags.max_motion_number)
     return VagsNetworks(gdnet=gd, vanet=va, ggcnn=gg, q_threshold=jnp.asarray(thr, jnp.float32), success=su,
-                        calibration=cal, gate_table=rate_gate.load(run_dir, source, gd_source, close_source or gd_source,
-                                                                   cfg.vags.max_motion_number),
-                        close_gdnet=close, source=source, gdnet_source=gd_source, close_gdnet_source=close_source)
+                        calibration=cal, gate_table=table,
+                        close_gdnet=close, source=source, gdnet_source=gd_source, close_gdnet_source=close_source,
+                        gate_estimate=rate_gate.estimate_of(run_dir) if table is not None else "grasp")
 
 
 def _restore_vags(run_dir: str, cfg: Config, name: str, step: Optional[int]):
