@@ -79,6 +79,21 @@ def report(states: dict, bins: int) -> dict:
             "moved": round(float(np.mean(states["moved_success"])), 4), "bins": bins, "columns": cols, "pick": pick}
 
 
+def print_report(rep: dict) -> None:
+    """``report``'s figures as a Markdown table, one row per column, and its pick."""
+    print(f"{rep['states']} states: direct {100 * rep['direct']:.1f} %, after a move {100 * rep['moved']:.1f} %; "
+          f"{rep['bins']} bins")
+    print("| column | AUROC direct | AUROC moved | lowest 8th: direct % | after a move % | gain per state (points) "
+          "| picks/h | moving bins | motion number | success % |")
+    print("|---|---:|---:|---:|---:|---:|---:|---|---:|---:|")
+    for c, f in rep["columns"].items():
+        lo = f["lowest_eighth"]
+        print(f"| {c} | {f['auroc_direct']:.3f} | {f['auroc_moved']:.3f} | {100 * lo['direct']:.1f} | "
+              f"{100 * lo['moved']:.1f} | {100 * lo['gain_per_state']:+.2f} | {f['picks_per_hour']:.0f} | "
+              f"{f['moving_bins']} | {f['motion_number']:.3f} | {100 * f['success']:.1f} |")
+    print(f"pick: {rep['pick']} (the vags.gate_estimate whose table predicts the most picks per hour)")
+
+
 def load(path: str):
     """A run directory or a gate_states.npz -> (states, bins of the gate.json beside it or None)."""
     npz = os.path.join(path, STATES_FILE) if os.path.isdir(path) else path
@@ -99,17 +114,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     states, table_bins = load(args.path)
     rep = report(states, args.bins or table_bins or 8)
-    print(f"{rep['states']} states: direct {100 * rep['direct']:.1f} %, after a move {100 * rep['moved']:.1f} %; "
-          f"{rep['bins']} bins")
-    print("| column | AUROC direct | AUROC moved | lowest 8th: direct % | after a move % | gain per state (points) "
-          "| picks/h | moving bins | motion number | success % |")
-    print("|---|---:|---:|---:|---:|---:|---:|---|---:|---:|")
-    for c, f in rep["columns"].items():
-        lo = f["lowest_eighth"]
-        print(f"| {c} | {f['auroc_direct']:.3f} | {f['auroc_moved']:.3f} | {100 * lo['direct']:.1f} | "
-              f"{100 * lo['moved']:.1f} | {100 * lo['gain_per_state']:+.2f} | {f['picks_per_hour']:.0f} | "
-              f"{f['moving_bins']} | {f['motion_number']:.3f} | {100 * f['success']:.1f} |")
-    print(f"pick: {rep['pick']} (the vags.gate_estimate whose table predicts the most picks per hour)")
+    print_report(rep)
     if args.json:
         with open(args.json, "w") as f:
             json.dump({"path": args.path, **rep}, f, indent=1)
