@@ -165,9 +165,11 @@ def _evaluate(args, plan, t_main: float, argv) -> int:
         table = rate_gate.load_table(args.run, networks.source, networks.gdnet_source,
                                      networks.close_source, cfg.vags.max_motion_number)
         if table is not None:
-            extra["rate_gate"] = rate_gate.moves_summary(table, cfg.vags.max_motion_number)
+            extra["rate_gate"] = {**rate_gate.moves_summary(table, cfg.vags.max_motion_number),
+                                  "estimate": cfg.vags.gate_estimate}
             g = extra["rate_gate"]
-            log(f"rate gate: moves in bins {g['moving_bins']} of {g['bins']} (lowest p_direct first); its table "
+            log(f"rate gate: moves in bins {g['moving_bins']} of {g['bins']} (lowest p_direct, the success net's "
+                f"{g['estimate']!r} estimate, first); its table "
                 f"predicts a motion number of {g['motion_number']:.3f} and {100 * g['success']:.1f} % success"
                 + (f" (vags.max_motion_number={g['max_motion_number']:g})" if g["max_motion_number"] else ""))
     overall = {}

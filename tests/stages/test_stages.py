@@ -516,6 +516,7 @@ def test_the_pipeline_measures_the_rate_gate_table_that_eval_plays(runs, tmp_pat
     # The report says where the gate moved and what its table predicted (no cap given).
     assert report["rate_gate"]["moving_bins"] == [k for k, v in enumerate(t["move_value"]) if v > 0]
     assert report["rate_gate"]["bins"] == 2 and report["rate_gate"]["max_motion_number"] == 0.0
+    assert report["rate_gate"]["estimate"] == "grasp"  # the success estimate its table bins
     # vags.max_motion_number reaches the decision's table through the run's networks: a cap of 1
     # (every grasp at its first motion) leaves no bin moving.
     cfg = checkpoint.load_config(full)
