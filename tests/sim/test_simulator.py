@@ -196,18 +196,27 @@ def test_mujoco_c_runs_the_same_grasp(grasp_batch, sim, scene):
 
 def test_grasp_or_reset_grasps_in_some_worlds_and_resets_the_others(grasp_batch, sim, scene, cfg):
     """The training loop's step: every 4th world gets a new scene that settles while the
-    others grasp; the grasping worlds' outcomes are those of a plain grasp."""
-    state, B = grasp_batch["state"], grasp_batch["pos"].shape[0]
+    others grasp; the grasping worlds' outcomes are those of a plain grasp.  On 16 of the
+    fixture's worlds (8 cubes, 4 empty spots, 4 long cuboids; 4 of them reset), not all 56:
+    half of this test's time was running the step, which grows with the worlds; the check is
+    the same per world."""
+    B0 = grasp_batch["pos"].shape[0]
+    pick = np.r_[0:8, N_CUBE:N_CUBE + 4, N_CUBE + N_EMPTY:N_CUBE + N_EMPTY + 4]
+    B = pick.size
+    state = jax.tree.map(lambda x: x[pick] if np.ndim(x) and np.shape(x)[0] == B0 else x, grasp_batch["state"])
     reset = np.arange(B) % 4 == 0
     n_new = np.where(reset, 2, 0).astype(np.int32)
     start = np.broadcast_to(np.asarray(cfg.camera.global_position, np.float32), (B, 3))
     keys = jax.random.split(jax.random.PRNGKey(5), B)
     st, res = jax.jit(sim.grasp_or_reset_batched)(
-        state, jnp.asarray(grasp_batch["position"], jnp.float32), jnp.asarray(grasp_batch["yaw"], jnp.float32),
-        jnp.asarray(start), jnp.asarray(reset), keys, jnp.asarray(n_new))
-    ok, ref = np.asarray(res.success), np.asarray(grasp_batch["res"].success)
+        state, jnp.asarray(grasp_batch["position"][pick], jnp.float32),
+        jnp.asarray(grasp_batch["yaw"][pick], jnp.float32), jnp.asarray(start), jnp.asarray(reset), keys,
+        jnp.asarray(n_new))
+    ok, ref = np.asarray(res.success), np.asarray(grasp_batch["res"].success)[pick]
+    assert ref[~reset].any() and not ref[~reset].all(), "the check needs grasps that succeed and grasps that fail"
     np.testing.assert_array_equal(ok[~reset], ref[~reset])
-    np.testing.assert_array_equal(np.asarray(st.active)[~reset], np.asarray(grasp_batch["new_state"].active)[~reset])
+    np.testing.assert_array_equal(np.asarray(st.active)[~reset],
+                                  np.asarray(grasp_batch["new_state"].active)[pick][~reset])
     # reset worlds: no grasp, a fresh 2-object scene at rest on the table
     assert not ok[reset].any() and (np.asarray(res.object)[reset] == -1).all()
     for f in (res.approach, res.descend, res.lift, res.gripper_gap):

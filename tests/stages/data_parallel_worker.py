@@ -2,7 +2,8 @@
 (``XLA_FLAGS=--xla_force_host_platform_device_count=2``, set before JAX starts).  ``update`` and
 ``env`` compute the same thing on one device and split over the 2-device mesh and report the
 largest differences; ``train`` runs ``train.py --devices 2`` in this process (2 iterations, resumed
-to 4, and 4 in one go, sharing one ``driver.Programs`` as test_stages.py's pipeline does).  All
+to 4, and 4 in one go, sharing one ``driver.Programs`` as test_stages.py's pipeline does; and
+``--devices 3``, which is refused).  All
 results are printed as one JSON line for the tests to judge: one process, one JAX start.
 
     python tests/stages/data_parallel_worker.py OUT_DIR
@@ -156,7 +157,8 @@ def check_env(programs) -> dict:
 def check_train(out_dir: str, programs) -> dict:
     """``train.py --stage gdnet --devices 2`` on the tiny test config: 2 iterations into
     OUT_DIR/dp, then ``--resume`` to 4 (the device count read from its config.json), and 4 in
-    one go into OUT_DIR/dp_straight -> {name: {"code", "stderr"}}; the test reads the runs."""
+    one go into OUT_DIR/dp_straight, and --devices 3 ("too_many", with its stdout) -> {name: {"code",
+    "stderr"}}; the test reads the runs."""
     import train
 
     sets = lambda n: [f"{k}={v}" for k, v in {**TINY_TEST_OVERRIDES, "stage1.iterations": n}.items()] + PYRAMIDAL  # noqa: E731
@@ -173,6 +175,14 @@ def check_train(out_dir: str, programs) -> dict:
         with contextlib.redirect_stderr(err):
             code = train.main(argv, programs)
         got[name] = {"code": code, "stderr": err.getvalue()}
+    # --devices 3 for 2 worlds on these 2 devices: refused in one line (stdout kept too), before
+    # anything is built (here rather than in a train.py process of its own: one JAX start less).
+    out_, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out_), contextlib.redirect_stderr(err):
+        code = train.main(["--config", "tiny", "--stage", "gdnet", "--devices", "3", "--out",
+                           os.path.join(out_dir, "three"), "--set"]
+                          + [f"{k}={v}" for k, v in {**TINY_TEST_OVERRIDES, "stage1.iterations": 2}.items()])
+    got["too_many"] = {"code": code, "stdout": out_.getvalue(), "stderr": err.getvalue()}
     return got
 
 

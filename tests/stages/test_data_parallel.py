@@ -82,7 +82,7 @@ def test_sharded_env_step_equals_the_unsharded_step_per_world(two_devices):
     assert r["color_cells_off_edges"] == 0 and r["color_cells"] <= r["cells"] // 100, r
 
 
-def test_train_py_devices_2_trains_checkpoints_and_resumes(two_devices, tmp_path):
+def test_train_py_devices_2_trains_checkpoints_and_resumes(two_devices):
     """train.py --stage gdnet --devices 2 on 2 CPU devices: 2 iterations, then --resume to 4 (the
     device count kept from config.json), equal to 4 iterations in one go; finite learning
     metrics; the replay saved as 2 shards.  --devices 3 for 2 worlds: one line, exit code 2."""
@@ -114,11 +114,12 @@ def test_train_py_devices_2_trains_checkpoints_and_resumes(two_devices, tmp_path
     drop = lambda rs: [{k: v for k, v in r.items() if k != "wall_s"} for r in rs]  # noqa: E731
     assert drop(rows) == drop(_rows(os.path.join(straight, "metrics.jsonl")))
 
-    too_many = _two_devices(["train.py", "--config", "tiny", "--stage", "gdnet", "--devices", "3", "--out",
-                             str(tmp_path / "three"), "--set"] + _sets(2), timeout=120)
-    assert too_many.returncode == 2 and too_many.stdout == ""
-    lines = too_many.stderr.strip().splitlines()
-    assert len(lines) == 1 and "Traceback" not in too_many.stderr, too_many.stderr
+    # train.main(--devices 3) in the worker's 2-device process (exit code 2 of the command line).
+    too_many = two_devices["train"]["too_many"]
+    assert too_many["code"] == 2 and too_many["stdout"] == ""
+    lines = too_many["stderr"].strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in too_many["stderr"], too_many["stderr"]
+    assert not os.path.exists(os.path.join(two_devices["out"], "three"))  # refused before writing anything
     assert "stage1.n_worlds = 2 is not divisible by the 3 devices" in lines[0]
 
 
