@@ -45,8 +45,7 @@ from vags_jax.config import GateTable, replace
 from vags_jax.env import VagsEnv, where_worlds
 from vags_jax.policies import rate_gate
 from vags_jax.policies.catalog import vags_params
-from vags_jax.policies.decision import (GATE_ESTIMATES, VagsNets, close_view_grasp, decide, success_estimate,
-                                        success_estimates)
+from vags_jax.policies.decision import GATE_ESTIMATES, VagsNets, close_view_grasp, decide, success_estimates
 from vags_jax.stages import checkpoint, rundir
 from vags_jax.stages.programs import Programs
 
@@ -87,8 +86,8 @@ def make_collect(cfg, env: VagsEnv, nets: VagsNets):
                                     params.get("ggcnn"), nets.ggcnn)
         after_direct, rows_direct = branch("direct", state, direct)
         after_moved, rows_moved = branch("moved", state, moved)
-        out = {"p_direct": success_estimate(q_success, d.grasp, cfg.vags.gate_estimate),
-               **success_estimates(q_success, q_grasp, d.grasp),
+        estimates = success_estimates(q_success, q_grasp, d.grasp)
+        out = {"p_direct": estimates[f"p_{cfg.vags.gate_estimate}"], **estimates,
                "objects": env.n_remaining(state), "live": (env.n_remaining(state) > 0) & ~state.sim.error,
                **rows_direct, **rows_moved}
         followed = where_worlds(jnp.broadcast_to(follow_moved, (state.n_worlds,)), after_moved, after_direct)
@@ -336,7 +335,8 @@ def main(argv=None) -> int:
     if args.refit and (args.bins is None or any(getattr(args, n) is not None for n in ("worlds", "steps", "seed",
                                                                                       "count_lost", "gdnet"))
                        or args.follow != "direct"):
-        print(f"{PROG}: --refit fits the measured states again: it takes --bins (and --out, --estimate) only", file=sys.stderr)
+        print(f"{PROG}: --refit fits the measured states again: it takes --bins (and --out, --estimate) only",
+              file=sys.stderr)
         return 2
     if args.follow == "moved" and args.out is None:
         print(f"{PROG}: --follow moved measures a diagnostic, not the gate's table: give --out DIR for it "
