@@ -110,3 +110,27 @@ def lost_table(losses):
     for s, nets, policy, (a, lost, per, direct, moved) in losses:
         print(f"| {s} | {nets} | {policy} | {a} | {lost} | {per:.3f} | {direct:.3f} | "
               + ("" if moved != moved else f"{moved:.3f}") + " |")
+
+
+def vags_against_ablation(here, runs, evals):
+    """Prints a look's tables for ``runs`` ((folder under ``here``, networks label) tuples, each
+    with seed<S>/eval_vags and eval_vags-no-viewpoint, seeds 11-13): both policies, VAGS's
+    margins, its branches, the objects lost on 6-10 objects, and the margin fit over ``evals``
+    (``margin_fits``, looks beside ``here``)."""
+    cases, gains, branches, losses = [], [], [], []
+    for sub, nets in runs:
+        for s in (11, 12, 13):
+            nv = find(os.path.join(here, sub, f"seed{s}"), "eval_vags-no-viewpoint")
+            va = find(os.path.join(here, sub, f"seed{s}"), "eval_vags")
+            cases += [(s, nets, "`--no-viewpoint`", nv), (s, nets, "VAGS", va)]
+            rn, rv = row(nv), row(va)
+            gains.append((f"{s}, {nets}", rv[0] - rn[0], rv[1] - rn[1], rv[2] - rn[2]))
+            o = va["overall"]
+            branches.append((s, nets, o["success_direct"], o["success_after_move"], o["first_attempt_success"],
+                             nv["overall"]["first_attempt_success"]))
+            losses += [(s, nets, "`--no-viewpoint`", lost_row(nv)), (s, nets, "VAGS", lost_row(va))]
+    table("The default scenes, groups 1-10 x 50 rounds", cases)
+    differences("Points, VAGS − ablation", ["success", "6-10 success", "6-10 clearing"], gains)
+    branches_table("networks", branches)
+    lost_table(losses)
+    margin_fits(os.path.dirname(here), evals)

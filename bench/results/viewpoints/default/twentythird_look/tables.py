@@ -10,8 +10,7 @@ import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.dirname(os.path.dirname(HERE)))
-from report_tables import (branches_table, differences, find, lost_row, lost_table, margin_fits, row,  # noqa: E402
-                           table)
+from report_tables import vags_against_ablation  # noqa: E402
 
 RUNS = (("fallback", "run g54f"), ("warm", "run g55w"))
 
@@ -23,23 +22,7 @@ EVALS = [("twentieth_look", "", "")] + [("twentyfirst_look", v, "") for v in (""
 
 
 def main():
-    cases, gains, branches, losses = [], [], [], []
-    for sub, nets in RUNS:
-        for s in (11, 12, 13):
-            nv = find(os.path.join(HERE, sub, f"seed{s}"), "eval_vags-no-viewpoint")
-            va = find(os.path.join(HERE, sub, f"seed{s}"), "eval_vags")
-            cases += [(s, nets, "`--no-viewpoint`", nv), (s, nets, "VAGS", va)]
-            rn, rv = row(nv), row(va)
-            gains.append((f"{s}, {nets}", rv[0] - rn[0], rv[1] - rn[1], rv[2] - rn[2]))
-            o = va["overall"]
-            branches.append((s, nets, o["success_direct"], o["success_after_move"], o["first_attempt_success"],
-                             nv["overall"]["first_attempt_success"]))
-            losses += [(s, nets, "`--no-viewpoint`", lost_row(nv)), (s, nets, "VAGS", lost_row(va))]
-    table("The default scenes, groups 1-10 x 50 rounds", cases)
-    differences("Points, VAGS − ablation", ["success", "6-10 success", "6-10 clearing"], gains)
-    branches_table("networks", branches)
-    lost_table(losses)
-    margin_fits(os.path.dirname(HERE), EVALS)
+    vags_against_ablation(HERE, RUNS, EVALS)
     sweep()
 
 
