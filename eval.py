@@ -166,10 +166,10 @@ def _evaluate(args, plan, t_main: float, argv) -> int:
                                      networks.close_source, cfg.vags.max_motion_number)
         if table is not None:
             extra["rate_gate"] = {**rate_gate.moves_summary(table, cfg.vags.max_motion_number),
-                                  "estimate": cfg.vags.gate_estimate}
+                                  "estimate": cfg.vags.gate_estimate, "close_score": cfg.vags.close_score}
             g = extra["rate_gate"]
             log(f"rate gate: moves in bins {g['moving_bins']} of {g['bins']} (lowest p_direct, the success net's "
-                f"{g['estimate']!r} estimate, first); its table "
+                f"{g['estimate']!r} estimate, first; grasps after a move scored by {g['close_score']!r}); its table "
                 f"predicts a motion number of {g['motion_number']:.3f} and {100 * g['success']:.1f} % success"
                 + (f" (vags.max_motion_number={g['max_motion_number']:g})" if g["max_motion_number"] else ""))
     overall = {}

@@ -48,6 +48,7 @@ def test_refit_bins_the_saved_states_again_and_keeps_the_networks(tmp_path, caps
     assert {k: d[k] for k in META} == META  # the networks it was measured on, so eval.py still loads it
     assert d["refit"] == {"bins": 2, "from_bins": 1, "from_estimate": "grasp"} and d["estimate"] == "grasp"
     assert rate_gate.load_table(run, META["networks"], META["gdnet"], META["close_gdnet"]) is not None
+    assert rate_gate.close_score_of(run) == "q"  # a table from before the score was recorded
 
 
 def test_refit_into_out_leaves_the_run_alone(tmp_path):
@@ -63,6 +64,7 @@ def test_refit_into_out_leaves_the_run_alone(tmp_path):
 @pytest.mark.parametrize("argv, says", [
     (["--refit"], "takes --bins"),
     (["--refit", "--bins", "2", "--worlds", "8"], "takes --bins"),
+    (["--refit", "--bins", "2", "--close-score", "success"], "takes --bins"),  # the states hold one score's grasps
     (["--refit", "--bins", "9"], "at least one state per bin"),
 ])
 def test_refit_errors_say_what_to_fix(tmp_path, capsys, argv, says):

@@ -494,7 +494,7 @@ def test_the_pipeline_measures_the_rate_gate_table_that_eval_plays(runs, tmp_pat
     assert ((rows["objects"] >= 1) & (rows["objects"] <= t["objects"][1])).all()
     # Every success estimate is recorded beside the one the table bins (the run's, "grasp"); the
     # success net's largest value anywhere is at least its value at GDNet's grasp.
-    assert t["estimate"] == "grasp"
+    assert t["estimate"] == "grasp" and t["close_score"] == "q"  # as the run's config scores grasps after a move
     np.testing.assert_array_equal(rows["p_grasp"], rows["p_direct"])
     assert all(rows[k].shape == rows["p_direct"].shape for k in ("p_symmetric", "p_window", "p_best", "q_direct"))
     assert (rows["p_best"] >= rows["p_grasp"]).all()
@@ -517,6 +517,7 @@ def test_the_pipeline_measures_the_rate_gate_table_that_eval_plays(runs, tmp_pat
     assert report["rate_gate"]["moving_bins"] == [k for k, v in enumerate(t["move_value"]) if v > 0]
     assert report["rate_gate"]["bins"] == 2 and report["rate_gate"]["max_motion_number"] == 0.0
     assert report["rate_gate"]["estimate"] == "grasp"  # the success estimate its table bins
+    assert report["rate_gate"]["close_score"] == "q"
     # vags.max_motion_number reaches the decision's table through the run's networks: a cap of 1
     # (every grasp at its first motion) leaves no bin moving.
     cfg = checkpoint.load_config(full)

@@ -649,6 +649,7 @@ VAGS_STAGE3_GDNET = ("all", "direct", "frozen")
 VAGS_STAGE3_GDNET_PICKS = ("rate", "last")
 VAGS_CLOSE_REGIONS = ("seen", "map")
 VAGS_GATE_ESTIMATES = ("grasp", "symmetric", "window")
+VAGS_CLOSE_SCORES = ("q", "success")
 
 
 @dataclass(frozen=True)
@@ -712,6 +713,13 @@ class Vags:
       same grasp turned half a turn; "window": the mean over both rotations and the 3 x 3 cells
       around the grasp.  The rate gate's table is fit on this estimate and records it
       (RUN/gate.json "estimate"); a run is evaluated with the estimate its table was fit on.
+    close_score: what the "gdnet" planner maximizes among its cells after a move.  "q": GDNet's
+      Q (gamma 0.5: immediate success plus discounted future reward); "success": the success
+      net's estimate (gamma 0: the grasp's own success), averaged over the grasp and the same
+      grasp turned half a turn (``decision.half_turn_mean``).  Read where a trained VAGS run is
+      used (eval.py, the rate gate's table, predict); training and the NBV baseline score by
+      "q".  The table records it (RUN/gate.json "close_score"), and a run is evaluated with
+      the setting its table was measured with.
     max_motion_number: a cap on the "rate" gate's moves (0: none).  The gate moves in the bins
       of its table where a move raises the picks per hour; with a cap it drops moving bins,
       the smallest success gain first, until the motion number its table predicts (motions per
@@ -742,6 +750,7 @@ class Vags:
     max_motion_number: float = 0.0
     train_ggcnn: bool = False
     gate_estimate: str = "grasp"
+    close_score: str = "q"
 
     def __post_init__(self):
         _check(self.local_planner in VAGS_LOCAL_PLANNERS,
@@ -759,6 +768,11 @@ class Vags:
                f"Vags.close_region must be one of {VAGS_CLOSE_REGIONS}, got {self.close_region!r}")
         _check(self.gate_estimate in VAGS_GATE_ESTIMATES,
                f"Vags.gate_estimate must be one of {VAGS_GATE_ESTIMATES}, got {self.gate_estimate!r}")
+        _check(self.close_score in VAGS_CLOSE_SCORES,
+               f"Vags.close_score must be one of {VAGS_CLOSE_SCORES}, got {self.close_score!r}")
+        _check(self.close_score == "q" or self.local_planner == "gdnet",
+               f"Vags.close_score={self.close_score!r} scores the 'gdnet' close-view planner's cells, and "
+               f"local_planner is {self.local_planner!r}: set vags.close_score=q or vags.local_planner=gdnet")
         _check(self.view_reward in VAGS_VIEW_REWARDS,
                f"Vags.view_reward must be one of {VAGS_VIEW_REWARDS}, got {self.view_reward!r}")
         if self.threshold is not None:

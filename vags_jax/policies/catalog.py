@@ -182,6 +182,16 @@ def vags_params(networks, cfg: Config, threshold=None) -> dict:
                          f"vags.gate_estimate={table_estimate}, or fit the table on the other estimate with "
                          f"python -m vags_jax.stages.gate_measure --run RUN --refit --bins K "
                          f"--estimate {cfg.vags.gate_estimate}")
+    table_close = getattr(networks, "gate_close_score", "q")
+    if cfg.vags.gate == "rate" and networks.gate_table is not None and not ablation and (
+            table_close != cfg.vags.close_score):
+        raise ValueError(f"the run's gate table (RUN/gate.json) was measured with the grasps after a move scored by "
+                         f"vags.close_score={table_close!r}, and this config scores them by {cfg.vags.close_score!r}: "
+                         f"evaluate with --set vags.close_score={table_close}, or measure a table for this one with "
+                         f"python -m vags_jax.stages.gate_measure --run RUN --close-score {cfg.vags.close_score}")
+    if cfg.vags.close_score == "success" and networks.success is None:
+        raise ValueError(f"vags.close_score=success scores the grasps after a move with the success net, and the "
+                         f"run's networks ({networks.source}) have none: evaluate with --set vags.close_score=q")
     if cfg.vags.local_planner == "ggcnn" and networks.ggcnn is None:
         raise ValueError("vags.local_planner=ggcnn needs a GG-CNN in the run (RUN/ggcnn): train one with "
                          "python train.py --stage ggcnn --out RUN")

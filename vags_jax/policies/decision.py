@@ -17,9 +17,10 @@ state and the world grasps directly where the score exceeds the threshold:
 
 A direct grasp is GDNet's argmax (1 motion).  Otherwise the camera moves to the viewpoint
 above VANet's argmax cell (or GDNet's: ``vags.viewpoint``; ``camera.viewpoint_pose``), takes the raw depth image there, and
-grasps with the close-view planner (``vags.local_planner``): ``"gdnet"``, GDNet's argmax on the
-global maps fused with the close view (``view_fusion``) among the cells the close view saw;
-``"ggcnn"``, GG-CNN's best grasp in the close image.  2 motions.  A threshold of ``-inf``
+grasps with the close-view planner (``vags.local_planner``): ``"gdnet"``, the argmax on the
+global maps fused with the close view (``view_fusion``) among the cells the close view saw, of
+GDNet's Q or of the success net's half-turn mean (``vags.close_score``); ``"ggcnn"``, GG-CNN's
+best grasp in the close image.  2 motions.  A threshold of ``-inf``
 always grasps directly (the VANet ablation); ``+inf`` always moves.
 """
 from __future__ import annotations
@@ -33,6 +34,7 @@ from flax import struct
 from vags_jax import batching
 from vags_jax.perception import view_fusion
 from vags_jax.config import Config, Vags
+from vags_jax.config.sections import VAGS_CLOSE_SCORES as CLOSE_SCORES
 from vags_jax.config.sections import VAGS_GATE_ESTIMATES as GATE_ESTIMATES
 from vags_jax.ggcnn.planner import predict_grasp
 from vags_jax.policies import rate_gate
@@ -92,6 +94,18 @@ def _symmetric_rotation(q: jax.Array, grasp: jax.Array) -> jax.Array:
         raise ValueError(f"a symmetric success estimate needs an even number of grasp rotations (the grasp "
                          f"turned half a turn is one of them), got {n_rot}: use vags.gate_estimate=grasp")
     return (grasp[:, 0] + n_rot // 2) % n_rot
+
+
+def half_turn_mean(q: jax.Array) -> jax.Array:
+    """q (B, R, H, W) -> (B, R, H, W) float32: at rotation r the mean of q at r and r + R/2 (a
+    parallel-jaw grasp and the same grasp turned half a turn, which the network sees on
+    heightmaps rotated 180 degrees apart); averaging lowers the noise an argmax picks up."""
+    n_rot = q.shape[1]
+    if n_rot % 2:
+        raise ValueError(f"the half-turn mean needs an even number of grasp rotations (the grasp turned half a "
+                         f"turn is one of them), got {n_rot}: use vags.close_score=q")
+    q = q.astype(jnp.float32)
+    return 0.5 * (q + jnp.roll(q, n_rot // 2, axis=1))
 
 
 def _window_mean(q: jax.Array, rotation: jax.Array, row: jax.Array, col: jax.Array, radius: int) -> jax.Array:
@@ -223,26 +237,30 @@ def decide(q_grasp: jax.Array, q_view: jax.Array, threshold, q_success: Optional
 
 
 def fused_grasp(color: jax.Array, height: jax.Array, depth: jax.Array, rgb: jax.Array, pose: jax.Array,
-                cam_cfg, ws_cfg, gdnet_q: Callable, anywhere: bool = False):
+                cam_cfg, ws_cfg, gdnet_q: Callable, anywhere: bool = False, success_q: Optional[Callable] = None):
     """The "gdnet" close-view planner's grasp: the close images depth (B, h, w) / rgb (B, h, w, 3)
     taken at pose (B, 4, 4) with camera cam_cfg, fused into the global maps color (B, H, W, 3) /
-    height (B, H, W) (``view_fusion``), then GDNet's argmax among the cells the close view saw
-    (anywhere if it saw none, or with ``anywhere``: ``vags.close_region="map"``) -> (action
-    (B, 3) int32 [rotation, row, col], its Q (B,) float32, the fused color (B, H, W, 3) and
-    height (B, H, W), seen (B, H, W) bool)."""
+    height (B, H, W) (``view_fusion``), then the argmax among the cells the close view saw
+    (anywhere if it saw none, or with ``anywhere``: ``vags.close_region="map"``) of GDNet's Q
+    (gdnet_q), or, given success_q (``vags.close_score="success"``), of the success net's
+    ``half_turn_mean`` -> (action (B, 3) int32 [rotation, row, col], the score maximized there
+    (B,) float32, the fused color (B, H, W, 3) and height (B, H, W), seen (B, H, W) bool).
+    gdnet_q / success_q: ``(color, height) -> (B, R, H, W)``; only the one scored is run."""
     color, height, seen = view_fusion.fuse_close_view(color, height, depth, rgb, pose, cam_cfg, ws_cfg)
-    q = gdnet_q(color, height)  # (B, R, H, W)
+    score = gdnet_q(color, height) if success_q is None else half_turn_mean(success_q(color, height))
     region = jnp.where(seen.any(axis=(1, 2), keepdims=True) & (not anywhere), seen, True)
-    action, q_max = greedy(jnp.where(region[:, None], q, -jnp.inf))
-    return action, q_max, color, height, seen
+    action, best = greedy(jnp.where(region[:, None], score, -jnp.inf))
+    return action, best, color, height, seen
 
 
 def close_view_grasp(cfg: Config, env: VagsEnv, state: EnvState, view: jax.Array, key,
-                     gdnet_q: Optional[Callable] = None, ggcnn_params=None, ggcnn_model=None):
+                     gdnet_q: Optional[Callable] = None, ggcnn_params=None, ggcnn_model=None,
+                     success_q: Optional[Callable] = None):
     """Move the camera above view (B, 2) [row, col], take the close image (key: its sensor
     noise) and plan the grasp there with ``cfg.vags.local_planner`` -> (the attempt, 2 motions;
     ``CloseView``).  gdnet_q: ``(color, height) -> (B, R, H, W)`` GDNet's Q ("gdnet");
-    ggcnn_params / ggcnn_model: GG-CNN ("ggcnn")."""
+    success_q: the success net's, scored instead where given (``VagsNets.close_success_q``:
+    ``vags.close_score="success"``); ggcnn_params / ggcnn_model: GG-CNN ("ggcnn")."""
     pose = env.viewpoint_pose(state, view)
     image = env.camera_image(state.sim, pose, key)
     B = state.n_worlds
@@ -251,7 +269,7 @@ def close_view_grasp(cfg: Config, env: VagsEnv, state: EnvState, view: jax.Array
             raise ValueError("the 'gdnet' close-view planner needs GDNet")
         anywhere = cfg.vags.close_region == "map"
         action, _, color, height, seen = fused_grasp(state.color, state.height, image.depth, image.rgb, pose,
-                                                     cfg.camera, cfg.workspace, gdnet_q, anywhere)
+                                                     cfg.camera, cfg.workspace, gdnet_q, anywhere, success_q)
         position, yaw = env.grasp_pose(state.replace(height=height), action[:, 1:], action[:, 0])
         close = CloseView(image=image, color=color, height=height, seen=seen, action=action)
     else:
@@ -266,13 +284,16 @@ def close_view_grasp(cfg: Config, env: VagsEnv, state: EnvState, view: jax.Array
 
 
 def plan_attempt(cfg: Config, env: VagsEnv, state: EnvState, decision: Decision, key,
-                 gdnet_q: Optional[Callable] = None, ggcnn_params=None, ggcnn_model=None):
+                 gdnet_q: Optional[Callable] = None, ggcnn_params=None, ggcnn_model=None,
+                 success_q: Optional[Callable] = None):
     """A decision -> (the attempt of every world (``env.Attempt``), ``CloseView``): GDNet's grasp
     from the global view where ``decision.direct``, else the close-view planner's grasp at the
-    viewpoint above ``decision.view``.  Every world takes the close view (one jitted path for
-    all); the direct worlds' close grasps are discarded.  key: the close image's sensor noise."""
+    viewpoint above ``decision.view`` (success_q: ``close_view_grasp``).  Every world takes the
+    close view (one jitted path for all); the direct worlds' close grasps are discarded.  key:
+    the close image's sensor noise."""
     pos_d, yaw_d = env.grasp_pose(state, decision.grasp[:, 1:], decision.grasp[:, 0])
-    view_attempt, close = close_view_grasp(cfg, env, state, decision.view, key, gdnet_q, ggcnn_params, ggcnn_model)
+    view_attempt, close = close_view_grasp(cfg, env, state, decision.view, key, gdnet_q, ggcnn_params, ggcnn_model,
+                                           success_q)
     attempt = select_attempt(decision.direct, env.direct_attempt(pos_d, yaw_d), view_attempt)
     return attempt.replace(score=decision.score), close
 
@@ -304,6 +325,16 @@ class VagsNets:
         one apart (``rundir.GDNET_PICKS`` "split"), else ``params["gdnet"]``."""
         return self.gdnet_q(params.get("close_gdnet", params["gdnet"]))
 
+    def close_success_q(self, params: dict) -> Optional[Callable]:
+        """The success net's Q for scoring the grasps after a move where ``vags.close_score`` is
+        "success", else None (GDNet's Q scores them); ValueError without a success net."""
+        if self.cfg.vags.close_score != "success":
+            return None
+        if "success" not in params:
+            raise ValueError("vags.close_score=success scores the grasps after a move with the success net, and "
+                             "the run's networks have none: evaluate with --set vags.close_score=q")
+        return self.q_fn(self.gdnet, params["success"])
+
     def q_maps(self, params: dict, color: jax.Array, height: jax.Array):
         """Global maps color (B, H, W, 3) / height (B, H, W) -> (GDNet's Q (B, R, H, W), VANet's Q
         (B, H, W), the success net's (B, R, H, W) for the "success" and "rate" gates, else None)."""
@@ -326,11 +357,12 @@ class VagsNets:
         """-> (Attempt, Decision, CloseView, GDNet's Q, VANet's Q)."""
         decision, q_grasp, q_view = self.decide(params, state)
         attempt, close = plan_attempt(self.cfg, env, state, decision, key, self.close_q(params),
-                                      params.get("ggcnn"), self.ggcnn)
+                                      params.get("ggcnn"), self.ggcnn, self.close_success_q(params))
         return attempt, decision, close, q_grasp, q_view
 
 
-__all__ = ["Decision", "CloseView", "greedy", "value_at", "GATE_ESTIMATES", "success_estimate", "success_estimates",
+__all__ = ["Decision", "CloseView", "greedy", "value_at", "GATE_ESTIMATES", "CLOSE_SCORES", "half_turn_mean",
+           "success_estimate", "success_estimates",
            "gate_score", "update_calibration", "initial_calibration",
            "gate_threshold", "decide",
            "fused_grasp",

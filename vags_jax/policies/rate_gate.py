@@ -211,6 +211,13 @@ def estimate_of(run_dir: str) -> str:
     return "grasp" if d is None else str(d.get("estimate", "grasp"))
 
 
+def close_score_of(run_dir: str) -> str:
+    """The grasp-after-a-move score (``config.Vags.close_score``) RUN/gate.json was measured
+    with: its "close_score", "q" in tables from before it was recorded."""
+    d = read(run_dir)
+    return "q" if d is None else str(d.get("close_score", "q"))
+
+
 def from_dict(d: dict) -> GateTable:
     """A gate.json's contents -> its ``GateTable`` (the table's fields; the meta is dropped)."""
     fields = {f.name for f in dataclasses.fields(GateTable)}

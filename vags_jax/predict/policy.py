@@ -142,7 +142,8 @@ class FramePolicy:
                                     calibration=(np.zeros(checkpoint.part_shapes(d, s, "calibration")[0], np.float32)
                                                  if "calibration" in parts else None),
                                     gate_table=rate_gate.load(run_dir, source), source=source,
-                                    gate_estimate=rate_gate.estimate_of(run_dir)), cfg)
+                                    gate_estimate=rate_gate.estimate_of(run_dir),
+                                    gate_close_score=rate_gate.close_score_of(run_dir)), cfg)
         if cfg.vags.local_planner == "ggcnn":
             self.ggcnn_camera = checkpoint.load_config(ggcnn_dir(run_dir)).camera
         networks = rundir.load_vags(run_dir, cfg, s)
@@ -201,7 +202,9 @@ class FramePolicy:
             c = _close_gdnet_program(self.params, g["color"], g["height"], c_depth, c_rgb, c_pose, cfg=self.cfg,
                                      cam=close.camera)
             c = {k: np.asarray(v) for k, v in c.items()}
-            out["grasp"] = self._heightmap_grasp(c["grasp"][0], c["position"][0], c["yaw"][0], c["q"][0], "close")
+            scored = "p_success" if self.cfg.vags.close_score == "success" else "q"
+            out["grasp"] = self._heightmap_grasp(c["grasp"][0], c["position"][0], c["yaw"][0], c["score"][0], "close",
+                                                 scored)
             out["close_frame"]["cells_seen"] = int(c["seen"])
         else:
             c = {k: np.asarray(v) for k, v in _close_ggcnn_program(self.params, c_depth, c_pose, cfg=self.cfg,
@@ -236,9 +239,11 @@ class FramePolicy:
         return gate, (f"success estimate of the direct grasp {p_d:.3f} (bias {cal[0]:+.3f}) against {after}: "
                       f"score {score:+.4f} {rel} threshold {thr:+.4f}: {verdict}")
 
-    def _heightmap_grasp(self, action, position, yaw, q, view: str) -> dict:
+    def _heightmap_grasp(self, action, position, yaw, score, view: str, scored: str = "q") -> dict:
+        """scored: the key of the value the grasp maximized ("q": GDNet's Q; "p_success": the
+        success net's half-turn mean, ``vags.close_score="success"``)."""
         return {"view": view, "planner": "gdnet", "position": _json_floats(position),
-                "yaw": _json_float(yaw), "gripper_width": self.cfg.grasp.finger_stroke, "q": _json_float(q),
+                "yaw": _json_float(yaw), "gripper_width": self.cfg.grasp.finger_stroke, scored: _json_float(score),
                 "pixel": [int(action[1]), int(action[2])], "rotation": int(action[0])}
 
     def _ggcnn_grasp(self, c: dict) -> dict:
@@ -292,12 +297,14 @@ def _global_program(params, depth, rgb, pose, *, cfg, cam, gdnet_only):
 
 @functools.partial(jax.jit, static_argnames=("cfg", "cam"))
 def _close_gdnet_program(params, color, height, depth, rgb, pose, *, cfg, cam):
-    """The "gdnet" close-view planner on one close frame, fused into the global maps (1, H, W)."""
-    action, q, _, fused, seen = decision.fused_grasp(color, height, depth[None], rgb[None], pose[None], cam,
-                                                     cfg.workspace, _nets(cfg).close_q(params),
-                                                     cfg.vags.close_region == "map")
+    """The "gdnet" close-view planner on one close frame, fused into the global maps (1, H, W);
+    "score" is the value its grasp maximized (``vags.close_score``)."""
+    nets = _nets(cfg)
+    action, score, _, fused, seen = decision.fused_grasp(color, height, depth[None], rgb[None], pose[None], cam,
+                                                         cfg.workspace, nets.close_q(params),
+                                                         cfg.vags.close_region == "map", nets.close_success_q(params))
     position, yaw = grasp_pose(cfg, fused, action[:, 1:], action[:, 0])
-    return {"grasp": action, "q": q, "position": position, "yaw": yaw, "seen": seen.sum()}
+    return {"grasp": action, "score": score, "position": position, "yaw": yaw, "seen": seen.sum()}
 
 
 @functools.partial(jax.jit, static_argnames=("cfg", "cam"))

@@ -15,7 +15,8 @@ so after training both branches run from the same state:
 * from each state the direct grasp and the grasp after a move (VANet's viewpoint, or
   ``vags.viewpoint``; the configured close-view planner) each run in their own copy of the
   physics, with the benchmark's modelled robot seconds (``MotionTimeModel``; a failed grasp
-  also pays its return to the global pose);
+  also pays its return to the global pose); the grasp after a move is scored by
+  ``vags.close_score`` (``--close-score``), recorded in RUN/gate.json;
 * ``rate_gate.fit`` bins the success net's raw p_direct and writes the table to RUN/gate.json;
 * ``--follow moved`` (a diagnostic, written under ``--out``): the piles follow the grasps after
   a move instead, as in rounds that always move, to see how a branch's failures compound;
@@ -45,7 +46,8 @@ from vags_jax.config import GateTable, replace
 from vags_jax.env import VagsEnv, where_worlds
 from vags_jax.policies import rate_gate
 from vags_jax.policies.catalog import vags_params
-from vags_jax.policies.decision import GATE_ESTIMATES, VagsNets, close_view_grasp, decide, success_estimates
+from vags_jax.policies.decision import (CLOSE_SCORES, GATE_ESTIMATES, VagsNets, close_view_grasp, decide,
+                                        success_estimates)
 from vags_jax.stages import checkpoint, rundir
 from vags_jax.stages.programs import Programs
 
@@ -83,7 +85,7 @@ def make_collect(cfg, env: VagsEnv, nets: VagsNets):
         pos, yaw = env.grasp_pose(state, d.grasp[:, 1:], d.grasp[:, 0])
         direct = env.direct_attempt(pos, yaw)
         moved, _ = close_view_grasp(cfg, env, state, d.view, k_img, nets.close_q(params),
-                                    params.get("ggcnn"), nets.ggcnn)
+                                    params.get("ggcnn"), nets.ggcnn, nets.close_success_q(params))
         after_direct, rows_direct = branch("direct", state, direct)
         after_moved, rows_moved = branch("moved", state, moved)
         estimates = success_estimates(q_success, q_grasp, d.grasp)
@@ -102,13 +104,16 @@ def seconds(rows: dict, name: str, time_model: MotionTimeModel) -> np.ndarray:
                                     rows[f"{name}_travel"], rows[f"{name}_back"])
 
 
-def measure_config(run_cfg, estimate: Optional[str] = None):
+def measure_config(run_cfg, estimate: Optional[str] = None, close_score: Optional[str] = None):
     """The config the table is measured under: the run's, with the gate's inputs as the "success"
-    gate reads them (the raw success net and VANet's viewpoint), and p_direct the success net's
-    ``estimate`` (None: the run's ``vags.gate_estimate``)."""
+    gate reads them (the raw success net and VANet's viewpoint), p_direct the success net's
+    ``estimate`` (None: the run's ``vags.gate_estimate``) and the grasps after a move scored by
+    ``close_score`` (None: the run's ``vags.close_score``)."""
     over = {"vags.gate": "success", "vags.view_estimate": "vanet"}
     if estimate is not None:
         over["vags.gate_estimate"] = estimate
+    if close_score is not None:
+        over["vags.close_score"] = close_score
     return replace(run_cfg, **over)
 
 
@@ -151,7 +156,7 @@ def compile_collect(run_cfg, networks, programs=None) -> None:
 
 
 def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=print, programs=None,
-            count_lost=None, gdnet="stage3", follow="direct", estimate=None):
+            count_lost=None, gdnet="stage3", follow="direct", estimate=None, close_score=None):
     """The gate table of a trained run (stage 3's networks, else stage 2's) -> (GateTable, meta,
     states): ``states`` the (N,) per-state arrays of the live states the table was fit on, with
     each state's ``world`` and ``attempt`` (its index along the pile).
@@ -161,7 +166,8 @@ def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=pri
     "split" directly with stage 2's and after a move with stage 3's); follow: the branch the
     piles follow between attempts (``FOLLOW``; "moved" makes a diagnostic, not the gate's table);
     estimate: the success estimate the table bins (``config.Vags.gate_estimate``; None: the
-    run's), recorded as meta["estimate"]."""
+    run's), recorded as meta["estimate"]; close_score: what scores the grasps after a move
+    (``config.Vags.close_score``; None: the run's), recorded as meta["close_score"]."""
     if follow not in FOLLOW:
         raise ValueError(f"follow must be one of {FOLLOW}, got {follow!r}")
     run_cfg = checkpoint.load_config(run_dir)
@@ -169,7 +175,7 @@ def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=pri
     worlds, steps = worlds or g.worlds or GateTable().worlds, steps or g.steps
     bins, seed = bins or g.bins, g.seed if seed is None else seed
     count_lost = g.count_lost if count_lost is None else count_lost
-    cfg = measure_config(run_cfg, estimate)
+    cfg = measure_config(run_cfg, estimate, close_score)
     networks = rundir.load_vags(run_dir, cfg, gdnet=gdnet)
     params = vags_params(networks, cfg)  # ValueError without a success net
     stage = cfg.stage3
@@ -196,7 +202,8 @@ def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=pri
             "worlds": worlds, "steps": steps, "seed": seed,
             "objects": [stage.min_objects, stage.max_objects], "live_states": int(live.sum()),
             "viewpoint": cfg.vags.viewpoint, "local_planner": cfg.vags.local_planner,
-            "close_region": cfg.vags.close_region, "follow": follow, "estimate": cfg.vags.gate_estimate,
+            "close_region": cfg.vags.close_region, "close_score": cfg.vags.close_score, "follow": follow,
+            "estimate": cfg.vags.gate_estimate,
             "lost": rate_gate.paired_lost(table, rows["p_direct"], rows["direct_lost"], rows["moved_lost"]),
             "wall_s": round(time.time() - t0, 1), "device": str(jax.devices()[0])}
     states = {k: rows[k] for k in ("p_direct", "direct_success", "moved_success", "direct_lost", "moved_lost",
@@ -331,9 +338,13 @@ def main(argv=None) -> int:
                    help="the success net's estimate of GDNet's grasp the table bins (default: the run's "
                    "vags.gate_estimate; with --refit: the one the table was fit on); evaluate such a table "
                    "with --set vags.gate_estimate=...")
+    p.add_argument("--close-score", choices=CLOSE_SCORES, default=None,
+                   help="what scores the grasps after a move (default: the run's vags.close_score); evaluate such "
+                   "a table with --set vags.close_score=...")
     args = p.parse_args(argv)
     if args.refit and (args.bins is None or any(getattr(args, n) is not None for n in ("worlds", "steps", "seed",
-                                                                                      "count_lost", "gdnet"))
+                                                                                      "count_lost", "gdnet",
+                                                                                      "close_score"))
                        or args.follow != "direct"):
         print(f"{PROG}: --refit fits the measured states again: it takes --bins (and --out, --estimate) only",
               file=sys.stderr)
@@ -347,7 +358,8 @@ def main(argv=None) -> int:
             print(f"{PROG}: --{name} must be at least 1, got {getattr(args, name)}", file=sys.stderr)
             return 2
     kw = dict(log=lambda m: print(m, file=sys.stderr, flush=True), worlds=args.worlds, steps=args.steps,
-              bins=args.bins, seed=args.seed, count_lost=args.count_lost, follow=args.follow, estimate=args.estimate)
+              bins=args.bins, seed=args.seed, count_lost=args.count_lost, follow=args.follow, estimate=args.estimate,
+              close_score=args.close_score)
     try:
         if args.refit:
             table, meta, states = refit(args.run, args.bins, args.estimate)

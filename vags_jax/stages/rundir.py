@@ -171,6 +171,7 @@ class VagsNetworks:
     gdnet_source: str = struct.field(pytree_node=False, default="")  # GDNet's ("stage2 step N" where picked)
     close_gdnet_source: str = struct.field(pytree_node=False, default="")  # close_gdnet's; "" without one
     gate_estimate: str = struct.field(pytree_node=False, default="grasp")  # the estimate gate_table was fit on
+    gate_close_score: str = struct.field(pytree_node=False, default="q")  # vags.close_score gate_table was measured with
 
     @property
     def close_source(self) -> str:
@@ -266,7 +267,8 @@ def load_vags(run_dir: str, cfg: Optional[Config] = None, step: Optional[int] = 
     return VagsNetworks(gdnet=gd, vanet=va, ggcnn=gg, q_threshold=jnp.asarray(thr, jnp.float32), success=su,
                         calibration=cal, gate_table=table,
                         close_gdnet=close, source=source, gdnet_source=gd_source, close_gdnet_source=close_source,
-                        gate_estimate=rate_gate.estimate_of(run_dir) if table is not None else "grasp")
+                        gate_estimate=rate_gate.estimate_of(run_dir) if table is not None else "grasp",
+                        gate_close_score=rate_gate.close_score_of(run_dir) if table is not None else "q")
 
 
 def _restore_vags(run_dir: str, cfg: Config, name: str, step: Optional[int]):
