@@ -130,23 +130,34 @@ def test_the_motion_cap_drops_the_moves_that_add_least_success(tmp_path):
     assert rate_gate.motion_number(t, [True, True, True]) == pytest.approx(60 / 25)
     assert rate_gate.motion_number(t, [False, False, False]) == pytest.approx(30 / 16)
     assert rate_gate.capped(t, 0.0) is t  # no cap
-    # Cap 2.3: bin 1 (the smallest gain, 0.1) goes: 50 / 24 = 2.083 <= 2.3.
-    assert rate_gate.capped(t, 2.3).move_value == pytest.approx((0.3, 0.0, 0.2))
+    # Cap 2.3: bin 1 (the smallest gain, 0.1) goes: 50 / 24 = 2.083 <= 2.3.  A dropped bin's
+    # value is negated: the decision grasps directly only where it is below 0.
+    assert rate_gate.capped(t, 2.3).move_value == pytest.approx((0.3, -0.01, 0.2))
     # Cap 2.05: bin 2 (gain 0.3) goes next: 40 / 21 = 1.905.
-    assert rate_gate.capped(t, 2.05).move_value == pytest.approx((0.3, 0.0, 0.0))
+    assert rate_gate.capped(t, 2.05).move_value == pytest.approx((0.3, -0.01, -0.2))
     # The order is by success gain, not move value: here bin 2 has the smallest move value, yet
-    # bin 1 goes.
+    # bin 1 goes.  A bin that never moved keeps its own (negative) value.
     c = rate_gate.capped(_three_bins((0.3, 0.25, 0.05)), 2.3)
-    assert c.move_value == pytest.approx((0.3, 0.0, 0.05))
-    assert rate_gate.capped(t, 1.0).move_value == pytest.approx((0.0, 0.0, 0.0))  # under any choice: none move
-    np.testing.assert_allclose(c.array()[1], [0.3, 0.0, 0.05], rtol=1e-6)
-    # The decision never moves a dropped bin (its value is 0, not > 0).
-    table = jnp.asarray(rate_gate.capped(t, 2.05).array())
-    assert (rate_gate.move_value(table, jnp.asarray([0.1, 0.5, 0.9])) > 0).tolist() == [True, False, False]
+    assert c.move_value == pytest.approx((0.3, -0.25, 0.05))
+    assert rate_gate.capped(_three_bins((0.3, -0.4, 0.2)), 2.3).move_value == pytest.approx((0.3, -0.4, 0.2))
+    assert rate_gate.capped(t, 1.0).move_value == pytest.approx((-0.3, -0.01, -0.2))  # under any choice: none move
+    np.testing.assert_allclose(c.array()[1], [0.3, -0.25, 0.05], rtol=1e-6)
+    # The decision itself (the "rate" gate's score against its threshold) grasps directly in the
+    # dropped bins and moves in the kept one; a table capped by a cap it already meets plays as
+    # the uncapped one.
+    from vags_jax.policies.decision import gate_score
+    p = jnp.asarray([0.1, 0.5, 0.9])
+
+    def moved(table):
+        score = gate_score("rate", None, p, None, gate_table=jnp.asarray(table.array()))
+        return (~(score > 0)).tolist()
+
+    assert moved(rate_gate.capped(t, 2.05)) == [True, False, False]
+    assert moved(rate_gate.capped(_three_bins((0.3, -0.4, 0.2)), 2.3)) == [True, False, True]
     # Loaded from RUN/gate.json with the cap; the summary eval.py logs and writes.
     rate_gate.save(str(tmp_path), t, {"networks": "stage3 step 8"})
     np.testing.assert_allclose(rate_gate.load(str(tmp_path), "stage3 step 8", max_motion_number=2.3)[1],
-                               [0.3, 0.0, 0.2], rtol=1e-6)
+                               [0.3, -0.01, 0.2], rtol=1e-6)
     s = rate_gate.moves_summary(rate_gate.load_table(str(tmp_path), max_motion_number=2.3), 2.3)
     assert s == {"moving_bins": [0, 2], "bins": 3, "motion_number": round(50 / 24, 4),
                  "success": round(24 / 30, 4), "max_motion_number": 2.3}
@@ -205,3 +216,23 @@ def test_a_table_fit_on_another_estimate_says_how_to_evaluate_it():
         vags_params(nets, cfg)
     with pytest.raises(ValueError, match="vags.gate_estimate must be one of"):
         C.replace(C.Config(), **{"vags.gate_estimate": "mean"})
+
+
+def test_eval_py_loads_the_networks_with_the_set_cap_and_gdnet_pick(tmp_path, monkeypatch):
+    """``eval.py --set vags.max_motion_number=...`` (and ``vags.stage3_gdnet_pick``) must reach the
+    networks eval.py loads, whose gate table the decision plays, not only its report
+    (``requests.LOAD_FIELDS``); other --set fields leave the run's config as it is."""
+    from types import SimpleNamespace
+    from vags_jax.benchmark import requests
+    seen = []
+    monkeypatch.setattr(requests.checkpoint, "load_config", lambda run: C.tiny())
+    monkeypatch.setattr(requests.rundir, "load_vags",
+                        lambda run, cfg=None, **kw: seen.append(cfg) or SimpleNamespace(ggcnn=None))
+    monkeypatch.setattr(requests.os.path, "exists", lambda path: True)
+    args = SimpleNamespace(run=str(tmp_path), step=None, networks=None)
+    requests._run_config(args, "vags", {"vags.max_motion_number": 1.3, "vags.stage3_gdnet_pick": "last",
+                                        "vags.close_score": "success"})
+    assert seen[-1].vags.max_motion_number == 1.3 and seen[-1].vags.stage3_gdnet_pick == "last"
+    assert seen[-1].vags.close_score == "q"  # read where the networks are used, not where they load
+    requests._run_config(args, "vags", {"benchmark.rounds": 3})
+    assert seen[-1] is None  # the run's own config

@@ -522,7 +522,7 @@ def test_the_pipeline_measures_the_rate_gate_table_that_eval_plays(runs, tmp_pat
     # (every grasp at its first motion) leaves no bin moving.
     cfg = checkpoint.load_config(full)
     capped = pipeline.load_vags(full, C.replace(cfg, **{"vags.max_motion_number": 1.0})).gate_table
-    assert capped is not None and (np.asarray(capped)[1] <= 0).all()
+    assert capped is not None and (np.asarray(capped)[1] < 0).all()  # below 0: the decision grasps directly
     np.testing.assert_allclose(pipeline.load_vags(full, cfg).gate_table[1], t["move_value"], rtol=1e-6)
 
 

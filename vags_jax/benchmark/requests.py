@@ -258,17 +258,21 @@ def prepare_compare(args) -> SimpleNamespace:
     return plan
 
 
+# --set fields that change what rundir.load_vags returns (the decision's GDNets and gate table).
+LOAD_FIELDS = ("vags.stage3_gdnet_pick", "vags.max_motion_number")
+
+
 def _run_config(args, policy, overrides=None):
     """The run's (or preset's) config and what the policy loads from the run -> (run_cfg,
-    VAGS networks or None, GG-CNN params or None, GG-CNN's config or None).  A
-    ``vags.stage3_gdnet_pick`` in ``overrides`` chooses the GDNet the VAGS networks load."""
+    VAGS networks or None, GG-CNN params or None, GG-CNN's config or None).  The fields of
+    ``LOAD_FIELDS`` in ``overrides`` reach the VAGS networks as they load: the GDNet picked
+    (``vags.stage3_gdnet_pick``) and the cap on the gate table's moves (``vags.max_motion_number``)."""
     networks = ggcnn_params = None
     ggcnn_cfg = None
     if args.run:
         if policy in ("vags", "nbv"):  # no stage 2/3 (nbv) networks, no GG-CNN, damaged files
-            pick = (overrides or {}).get("vags.stage3_gdnet_pick")
-            load_cfg = None if pick is None else C.replace(checkpoint.load_config(args.run),
-                                                           **{"vags.stage3_gdnet_pick": pick})
+            given = {k: v for k, v in (overrides or {}).items() if k in LOAD_FIELDS}
+            load_cfg = C.replace(checkpoint.load_config(args.run), **given) if given else None
             networks = (rundir.load_vags(args.run, load_cfg, step=args.step, stage=args.networks)
                         if policy == "vags"
                         else rundir.load_nbv(args.run))

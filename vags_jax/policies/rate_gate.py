@@ -116,8 +116,9 @@ def motion_number(table: GateTable, moves) -> float:
 def capped(table: GateTable, max_motion_number: float) -> GateTable:
     """``table`` with moving bins (move value > 0) dropped, the smallest success gain (moved -
     direct) first, until ``motion_number`` is at most ``max_motion_number`` (0: no cap); a
-    dropped bin's move value becomes 0 (no move).  Dropping by success gain keeps the most
-    success per motion given up; the rate and the other bins are unchanged."""
+    dropped bin's move value is negated, so that the decision, which grasps directly where the
+    value is below 0 (``move_value``; threshold 0), grasps directly there.  Dropping by success
+    gain keeps the most success per motion given up; the rate and the other bins are unchanged."""
     if max_motion_number <= 0:
         return table
     value = np.asarray(table.move_value, np.float64)
@@ -127,7 +128,8 @@ def capped(table: GateTable, max_motion_number: float) -> GateTable:
         if motion_number(table, moves) <= max_motion_number:
             break
         moves[k] = False
-    return dataclasses.replace(table, move_value=tuple(float(v) for v in np.where(moves, value, 0.0)))
+    kept = np.where(moves | (value <= 0), value, -value)
+    return dataclasses.replace(table, move_value=tuple(float(v) for v in kept))
 
 
 def moves_summary(table: GateTable, max_motion_number: float = 0.0) -> dict:
