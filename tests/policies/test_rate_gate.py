@@ -154,6 +154,10 @@ def test_the_motion_cap_drops_the_moves_that_add_least_success(tmp_path):
 
     assert moved(rate_gate.capped(t, 2.05)) == [True, False, False]
     assert moved(rate_gate.capped(_three_bins((0.3, -0.4, 0.2)), 2.3)) == [True, False, True]
+    # A bin whose move is worth exactly nothing (0: e.g. no grasp succeeds in either branch of a
+    # barely trained run) grasps directly, as moves_summary counts it.
+    assert moved(_three_bins((0.3, 0.0, -0.2))) == [True, False, False]
+    assert rate_gate.moves_summary(_three_bins((0.3, 0.0, -0.2)))["moving_bins"] == [0]
     # Loaded from RUN/gate.json with the cap; the summary eval.py logs and writes.
     rate_gate.save(str(tmp_path), t, {"networks": "stage3 step 8"})
     np.testing.assert_allclose(rate_gate.load(str(tmp_path), "stage3 step 8", max_motion_number=2.3)[1],

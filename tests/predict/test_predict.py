@@ -285,6 +285,29 @@ def test_ggcnn_close_grasp_equals_the_eval_policy(run, scene, env, cfg):
     assert all(0 <= c < cfg.ggcnn.input_size for c in g["image_pixel"])
 
 
+def test_success_scored_close_grasp_equals_the_eval_policy(run, scene, env, cfg):
+    """vags.close_score=success (the gpu presets'): the close frame's grasp is the argmax of the
+    success net's half-turn mean on the fused maps, as the eval policy's, and says so.  The
+    success net's last kernel is negated, so that it prefers the lowest cells and its grasp
+    leaves the tall block GDNet would grasp."""
+    state, image = scene
+    over = {"vags.close_score": "success"}
+    scfg = C.replace(cfg, **over)
+    pol = predict.FramePolicy(run, over, threshold=1e6)
+    flip = lambda path, x: -x if jax.tree_util.keystr(path).endswith("['head']['conv1']['kernel']") else x  # noqa: E731
+    pol.params = {**pol.params, "success": jax.tree_util.tree_map_with_path(flip, pol.params["success"])}
+    frame = _frame(image, cfg)
+    view = jnp.asarray(pol.decide(frame)["viewpoint"]["camera_to_world"], jnp.float32)[None]
+    g = pol.decide(frame, _frame(jax.jit(env.camera_image)(state.sim, view), cfg))["grasp"]
+    params = {**catalog.vags_params(rundir.load_vags(run, scfg), scfg, 1e6), "success": pol.params["success"]}
+    attempt = jax.jit(lambda p, k, s: catalog.vags_plan(scfg)(p, k, env, s))(params, PLAN_KEY, state)
+    assert g["planner"] == "gdnet" and g["view"] == "close" and "q" not in g and isinstance(g["p_success"], float)
+    np.testing.assert_array_equal(np.float32(g["position"]), attempt.position[0])
+    assert np.float32(g["yaw"]) == attempt.yaw[0]
+    reach = 0.025 + cfg.workspace.pixel_size
+    assert abs(g["position"][0] - TALL_XY[0]) > reach or abs(g["position"][1] - TALL_XY[1]) > reach, g
+
+
 def test_no_viewpoint_on_a_stage1_run_is_gdnet_alone(run, policy, scene, cfg, tmp_path):
     """--no-viewpoint: a run with stage 1 alone grasps with its GDNet, as the VAGS run's
     direct grasp with the same GDNet."""

@@ -24,7 +24,7 @@ from vags_jax.stages import pipeline as fold
 from vags_jax.stages import requests
 from vags_jax.benchmark import requests as eval_requests
 from vags_jax.rl import replay
-from vags_jax.policies import rate_gate
+from vags_jax.policies import decision, rate_gate
 from vags_jax.policies.catalog import vags_params
 from vags_jax.policies.decision import VagsNets
 from vags_jax import config as C
@@ -511,7 +511,7 @@ def test_the_pipeline_measures_the_rate_gate_table_that_eval_plays(runs, tmp_pat
     assert report["threshold"] == 0.0 and report["overall"]["attempts"] > 0
     if all(v > 0 for v in t["move_value"]):
         assert report["overall"]["viewpoint_rate"] == 1.0
-    if all(v < 0 for v in t["move_value"]):
+    if all(v <= 0 for v in t["move_value"]):  # a move worth 0 is not made either
         assert report["overall"]["viewpoint_rate"] == 0.0
     # The report says where the gate moved and what its table predicted (no cap given).
     assert report["rate_gate"]["moving_bins"] == [k for k, v in enumerate(t["move_value"]) if v > 0]
@@ -522,7 +522,9 @@ def test_the_pipeline_measures_the_rate_gate_table_that_eval_plays(runs, tmp_pat
     # (every grasp at its first motion) leaves no bin moving.
     cfg = checkpoint.load_config(full)
     capped = pipeline.load_vags(full, C.replace(cfg, **{"vags.max_motion_number": 1.0})).gate_table
-    assert capped is not None and (np.asarray(capped)[1] < 0).all()  # below 0: the decision grasps directly
+    assert capped is not None and (np.asarray(capped)[1] <= 0).all()
+    score = decision.gate_score("rate", None, jnp.linspace(-1.0, 2.0, 7), None, gate_table=jnp.asarray(capped))
+    assert bool((score > 0).all())  # the decision grasps directly in every bin
     np.testing.assert_allclose(pipeline.load_vags(full, cfg).gate_table[1], t["move_value"], rtol=1e-6)
 
 

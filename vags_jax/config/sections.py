@@ -660,8 +660,9 @@ class Vags:
     ``local_planner="ggcnn"``, ``gate="q"``, ``view_reward="eq5"``, ``vanet_gamma=0.5``.
 
     local_planner: the grasp after a camera move.  "gdnet": the close depth image is projected
-      into the global heightmap (``view_fusion``) and GDNet's argmax among the cells the close
-      view saw is grasped; "ggcnn": GG-CNN's best grasp in the close image (the paper).
+      into the global heightmap (``view_fusion``) and the argmax among the cells the close view
+      saw is grasped (of GDNet's Q or the success net's estimate: ``close_score``); "ggcnn":
+      GG-CNN's best grasp in the close image (the paper).
     gate: when to move.  "success": move when VANet's estimate of the success after a move
       exceeds the success net's estimate of GDNet's direct grasp by more than ``move_cost``
       (both nets are trained with gamma 0 on 0/1 rewards, so both estimate a probability);

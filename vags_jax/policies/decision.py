@@ -146,6 +146,9 @@ def success_estimates(q_success: jax.Array, q_grasp: jax.Array, grasp: jax.Array
     return out
 
 
+NO_MOVE_SCORE = 1e-6  # the "rate" gate's smallest score where a move is worth nothing (above its threshold 0)
+
+
 def gate_score(gate: str, q_max: jax.Array, p_direct: Optional[jax.Array], p_view: Optional[jax.Array],
                calibration: Optional[jax.Array] = None, view_estimate: str = "vanet",
                gate_table: Optional[jax.Array] = None):
@@ -161,7 +164,11 @@ def gate_score(gate: str, q_max: jax.Array, p_direct: Optional[jax.Array], p_vie
         if p_direct is None or gate_table is None:
             raise ValueError("the 'rate' gate needs the success net's estimate and the run's measured gate table "
                              "(python -m vags_jax.stages.gate_measure --run RUN)")
-        return -rate_gate.move_value(jnp.asarray(gate_table, jnp.float32), p_direct).astype(jnp.float32)
+        value = rate_gate.move_value(jnp.asarray(gate_table, jnp.float32), p_direct).astype(jnp.float32)
+        # The comparison with the threshold (0) is strict: a bin whose value is 0 (a move gains
+        # nothing) scores above it, so the gate moves only where the value is positive, as the
+        # table's own summaries (``rate_gate.moves_summary``) count its moves.
+        return jnp.where(value > 0, -value, jnp.maximum(-value, NO_MOVE_SCORE))
     if p_direct is None or p_view is None:
         raise ValueError("the 'success' gate needs the success net's and VANet's estimates")
     cal = jnp.zeros((3,), jnp.float32) if calibration is None else jnp.asarray(calibration, jnp.float32)
