@@ -174,21 +174,18 @@ def vags_params(networks, cfg: Config, threshold=None) -> dict:
                          f"in RUN/gate.json, and the run has none for them: measure it with "
                          f"python -m vags_jax.stages.gate_measure --run RUN (it measures the run's latest "
                          f"networks), or evaluate with --set vags.gate=success")
-    table_estimate = getattr(networks, "gate_estimate", "grasp")
-    if cfg.vags.gate == "rate" and networks.gate_table is not None and not ablation and (
-            table_estimate != cfg.vags.gate_estimate):
-        raise ValueError(f"the run's gate table (RUN/gate.json) was fit on the success net's {table_estimate!r} "
-                         f"estimate, and this config reads {cfg.vags.gate_estimate!r}: evaluate with --set "
-                         f"vags.gate_estimate={table_estimate}, or fit the table on the other estimate with "
-                         f"python -m vags_jax.stages.gate_measure --run RUN --refit --bins K "
-                         f"--estimate {cfg.vags.gate_estimate}")
-    table_close = getattr(networks, "gate_close_score", "q")
-    if cfg.vags.gate == "rate" and networks.gate_table is not None and not ablation and (
-            table_close != cfg.vags.close_score):
-        raise ValueError(f"the run's gate table (RUN/gate.json) was measured with the grasps after a move scored by "
-                         f"vags.close_score={table_close!r}, and this config scores them by {cfg.vags.close_score!r}: "
-                         f"evaluate with --set vags.close_score={table_close}, or measure a table for this one with "
-                         f"python -m vags_jax.stages.gate_measure --run RUN --close-score {cfg.vags.close_score}")
+    # Settings the table was measured under, which the decision must share: (vags field, the
+    # table's value, how to get a table for the config's value instead).
+    measure = "python -m vags_jax.stages.gate_measure --run RUN"
+    for field, was, other in (
+            ("gate_estimate", getattr(networks, "gate_estimate", "grasp"),
+             f"fit the table on the other estimate with {measure} --refit --bins K --estimate {cfg.vags.gate_estimate}"),
+            ("close_score", getattr(networks, "gate_close_score", "q"),
+             f"measure a table for this one with {measure} --close-score {cfg.vags.close_score}")):
+        now = getattr(cfg.vags, field)
+        if cfg.vags.gate == "rate" and networks.gate_table is not None and not ablation and was != now:
+            raise ValueError(f"the run's gate table (RUN/gate.json) was measured with vags.{field}={was!r}, and this "
+                             f"config has {now!r}: evaluate with --set vags.{field}={was}, or {other}")
     if cfg.vags.close_score == "success" and networks.success is None:
         raise ValueError(f"vags.close_score=success scores the grasps after a move with the success net, and the "
                          f"run's networks ({networks.source}) have none: evaluate with --set vags.close_score=q")
