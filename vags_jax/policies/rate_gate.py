@@ -116,9 +116,9 @@ def motion_number(table: GateTable, moves) -> float:
 def capped(table: GateTable, max_motion_number: float) -> GateTable:
     """``table`` with moving bins (move value > 0) dropped, the smallest success gain (moved -
     direct) first, until ``motion_number`` is at most ``max_motion_number`` (0: no cap); a
-    dropped bin's move value is negated, so that the decision, which grasps directly where the
-    value is below 0 (``move_value``; threshold 0), grasps directly there.  Dropping by success
-    gain keeps the most success per motion given up; the rate and the other bins are unchanged."""
+    dropped bin's move value is negated (the decision moves only where a bin's value is positive:
+    ``decision.gate_score``), keeping its size for the record.  Dropping by success gain keeps
+    the most success per motion given up; the rate and the other bins are unchanged."""
     if max_motion_number <= 0:
         return table
     value = np.asarray(table.move_value, np.float64)
