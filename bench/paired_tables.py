@@ -77,13 +77,6 @@ def match(a: dict, b: dict) -> tuple[np.ndarray, np.ndarray]:
     return ia, ib
 
 
-def moving(table: rate_gate.GateTable, p) -> np.ndarray:
-    """(N,) bool: p_direct falls in a bin the table moves (move value > 0); the bin as
-    ``rate_gate.paired_lost`` and ``rate_gate.move_value`` find it (searchsorted, side="right")."""
-    k = np.searchsorted(np.asarray(table.edges, np.float64), np.asarray(p, np.float64), side="right")
-    return np.asarray(table.move_value, np.float64)[k] > 0
-
-
 def paired(direct_a, moved_a, moved_b) -> dict:
     """Figures of one subset, (n,) success arrays of the same states (see the module's docstring)."""
     d, a, b = (np.asarray(x, np.float64) for x in (direct_a, moved_a, moved_b))
@@ -115,8 +108,8 @@ def report(dir_a: str, dir_b: str, names=("A", "B")) -> dict:
                          f"measure both with the same --worlds, --steps and --seed")
     a = {k: np.asarray(sa[k])[ia] for k in REQUIRED}  # the matched rows, in the same order
     b = {k: np.asarray(sb[k])[ib] for k in REQUIRED}
-    a_moves = moving(rate_gate.from_dict(ga), a["p_direct"])
-    b_moves = moving(rate_gate.from_dict(gb), b["p_direct"])
+    a_moves = rate_gate.moves_at(rate_gate.from_dict(ga), a["p_direct"])
+    b_moves = rate_gate.moves_at(rate_gate.from_dict(gb), b["p_direct"])
     few = np.asarray(a["objects"]) <= 5
     subsets = {"all": np.ones(ia.size, bool), "a_moving": a_moves, "a_kept": ~a_moves,
                "objects_1_5": few, "objects_6_up": ~few, "b_moving": b_moves}

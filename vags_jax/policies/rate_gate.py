@@ -144,12 +144,19 @@ def moves_summary(table: GateTable, max_motion_number: float = 0.0) -> dict:
             "max_motion_number": float(max_motion_number)}
 
 
+def moves_at(table: GateTable, p) -> np.ndarray:
+    """(N,) bool: p_direct values p (N,) that fall in a bin the table moves (move value > 0),
+    each bin found as ``move_value`` finds it (its upper edge excluded)."""
+    k = np.searchsorted(np.asarray(table.edges, np.float64), np.asarray(p, np.float64), side="right")
+    return np.asarray(table.move_value, np.float64)[k] > 0
+
+
 def paired_lost(table: GateTable, p, lost_direct, lost_moved) -> dict:
     """Objects knocked off the table per attempt, direct against after a move on the same states
     (N,): over all states and over those the table moves, each with the paired difference
     (moved - direct) and its standard error."""
     p = np.asarray(p, np.float64)
-    moves = np.asarray(table.move_value)[np.searchsorted(np.asarray(table.edges), p, side="right")] > 0
+    moves = moves_at(table, p)
     out = {}
     for name, keep in (("all", np.ones(p.shape, bool)), ("moved_bins", moves)):
         d = np.asarray(lost_direct, np.float64)[keep]
