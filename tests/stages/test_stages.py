@@ -263,6 +263,43 @@ def test_stage3_direct_keeps_its_fused_map_grasps_out_of_gdnets_replay(runs, pro
     assert int(state.gdnet_replay.size) == direct, "a grasp on a fused map reached GDNet's replay"
 
 
+def test_train_close_score_success_plans_the_grasp_after_a_move_by_the_success_net(runs, programs, monkeypatch):
+    """``vags.train_close_score="success"``: stages 2-3 score the grasp after a move by the
+    success net's Q (here unlike GDNet's), which the iteration hands ``plan_attempt`` (traced
+    up to it, nothing compiled); the default hands none (GDNet's Q), nor does the NBV baseline,
+    which trains no success net."""
+    full, _ = runs
+    base = checkpoint.load_config(full)
+    env = programs.env(base)
+    gd2, va2, su2, thr2 = pipeline.stage2_result(full, base)
+    su2 = su2.replace(params=jax.tree.map(lambda x: -x, su2.params))  # unlike GDNet's, whatever stage 2 learned
+    stages = {score: vags_stages.VagsStage(C.replace(base, **{"vags.train_close_score": score}), 2, env)
+              for score in ("q", "success")}
+    assert stages["q"].close_success_q(su2) is None
+    state = stages["success"].init(pipeline.stage_key(base, "stage2"), gd2, None, va2, thr2, su2)
+    c, h = state.env.color, state.env.height
+    got = stages["success"].close_success_q(su2)(c, h)
+    np.testing.assert_allclose(got, stages["success"]._gdnet_q(su2)(c, h), rtol=1e-5, atol=1e-6)
+    assert not np.allclose(got, stages["success"]._gdnet_q(gd2)(c, h))
+
+    handed = []
+
+    class Stop(Exception):
+        pass
+
+    def fake_plan(*args, **kwargs):
+        handed.append(args[8] if len(args) > 8 else kwargs.get("success_q"))
+        raise Stop
+
+    monkeypatch.setattr(vags_stages, "plan_attempt", fake_plan)
+    for score in ("q", "success"):
+        with pytest.raises(Stop):
+            jax.eval_shape(stages[score]._iteration, state, stages[score].flags)
+    assert handed[0] is None and handed[1] is not None
+    assert not vags_stages.VagsStage(C.replace(base, **{"vags.train_close_score": "success"}), "nbv",
+                                     env).close_success_q(su2)
+
+
 def test_stages_2_and_3_run_one_compiled_program(runs):
     """Stages 2 and 3 of one config differ only in traced switches (``StageFlags``): built by
     one ``Programs``, stage 3 runs stage 2's jitted chunk, and the pipeline's stage 3 compiled

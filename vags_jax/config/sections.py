@@ -718,9 +718,13 @@ class Vags:
       Q (gamma 0.5: immediate success plus discounted future reward); "success": the success
       net's estimate (gamma 0: the grasp's own success), averaged over the grasp and the same
       grasp turned half a turn (``decision.half_turn_mean``).  Read where a trained VAGS run is
-      used (eval.py, the rate gate's table, predict); training and the NBV baseline score by
-      "q".  The table records it (RUN/gate.json "close_score"), and a run is evaluated with
-      the setting its table was measured with.
+      used (eval.py, the rate gate's table, predict); training scores by
+      ``train_close_score``.  The table records it (RUN/gate.json "close_score"), and a run is
+      evaluated with the setting its table was measured with.
+    train_close_score: ``close_score`` for the grasps after a move in training (stages 2-3):
+      "success" makes VANet's reward and the running success after a move follow the grasp
+      the evaluation makes under ``close_score="success"``; "q": GDNet's Q.  The NBV baseline
+      always scores by "q" (it trains no success net).
     max_motion_number: a cap on the "rate" gate's moves (0: none).  The gate moves in the bins
       of its table where a move raises the picks per hour; with a cap it drops moving bins,
       the smallest success gain first, until the motion number its table predicts (motions per
@@ -752,6 +756,7 @@ class Vags:
     train_ggcnn: bool = False
     gate_estimate: str = "grasp"
     close_score: str = "q"
+    train_close_score: str = "q"
 
     def __post_init__(self):
         _check(self.local_planner in VAGS_LOCAL_PLANNERS,
@@ -769,11 +774,12 @@ class Vags:
                f"Vags.close_region must be one of {VAGS_CLOSE_REGIONS}, got {self.close_region!r}")
         _check(self.gate_estimate in VAGS_GATE_ESTIMATES,
                f"Vags.gate_estimate must be one of {VAGS_GATE_ESTIMATES}, got {self.gate_estimate!r}")
-        _check(self.close_score in VAGS_CLOSE_SCORES,
-               f"Vags.close_score must be one of {VAGS_CLOSE_SCORES}, got {self.close_score!r}")
-        _check(self.close_score == "q" or self.local_planner == "gdnet",
-               f"Vags.close_score={self.close_score!r} scores the 'gdnet' close-view planner's cells, and "
-               f"local_planner is {self.local_planner!r}: set vags.close_score=q or vags.local_planner=gdnet")
+        for name in ("close_score", "train_close_score"):
+            value = getattr(self, name)
+            _check(value in VAGS_CLOSE_SCORES, f"Vags.{name} must be one of {VAGS_CLOSE_SCORES}, got {value!r}")
+            _check(value == "q" or self.local_planner == "gdnet",
+                   f"Vags.{name}={value!r} scores the 'gdnet' close-view planner's cells, and local_planner is "
+                   f"{self.local_planner!r}: set vags.{name}=q or vags.local_planner=gdnet")
         _check(self.view_reward in VAGS_VIEW_REWARDS,
                f"Vags.view_reward must be one of {VAGS_VIEW_REWARDS}, got {self.view_reward!r}")
         if self.threshold is not None:

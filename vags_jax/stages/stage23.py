@@ -164,6 +164,7 @@ class VagsStage:
         self.train_gdnet = self.which == 3 and cfg.vags.stage3_gdnet != "frozen"
         self.fused_to_replay = cfg.vags.local_planner == "gdnet" and not (
             self.which == 3 and cfg.vags.stage3_gdnet == "direct")
+        self.scores_by_success = cfg.vags.train_close_score == "success" and not self.nbv
         self.view_net_cfg = nbv_net(cfg.net) if self.nbv else cfg.net
         self.env = env if env is not None else VagsEnv(cfg)
         self.gdnet = make_qnet(cfg.net, "gdnet")
@@ -199,6 +200,11 @@ class VagsStage:
         """``(color, height) -> (B, R, H, W)`` the learner's Q (eval mode), in world groups."""
         one = lambda c, h: self._apply_gdnet(self._vars(ts), c, h, False)  # noqa: E731
         return lambda color, height: self._in_groups(one, color, height)
+
+    def close_success_q(self, success: dqn.TrainState):
+        """What scores the grasps after a move besides GDNet (``plan_attempt``'s success_q): the
+        success net's Q under ``vags.train_close_score="success"``, else None (GDNet's Q)."""
+        return self._gdnet_q(success) if self.scores_by_success else None
 
     def _greedy(self, gdnet: dqn.TrainState, s: EnvState):
         """GDNet (eval mode) on the global views -> argmax (B, 3) [rotation, row, col], max (B,)."""
@@ -324,7 +330,7 @@ class VagsStage:
         decision, p_direct, p_view = self._decision(state, q_view, grasp, view, flags.stage3)
         direct = decision.direct
         attempt, close = plan_attempt(cfg, env, s, decision, k_img, self._gdnet_q(state.gdnet), state.ggcnn,
-                                      self.ggcnn)
+                                      self.ggcnn, self.close_success_q(state.success))
 
         extra = st.max_attempts_extra
         resetting = env.round_over(s, extra) | s.sim.error  # rounds that ended last iteration
