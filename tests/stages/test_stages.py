@@ -276,7 +276,8 @@ def test_train_close_score_success_plans_the_grasp_after_a_move_by_the_success_n
     stages = {score: vags_stages.VagsStage(C.replace(base, **{"vags.train_close_score": score}), 2, env)
               for score in ("q", "success")}
     assert stages["q"].close_success_q(su2) is None
-    state = stages["success"].init(pipeline.stage_key(base, "stage2"), gd2, None, va2, thr2, su2)
+    state = stages["success"].init(pipeline.stage_key(base, "stage2"), gd2, None, va2, thr2, su2,
+                                   abstract_replays=True)
     c, h = state.env.color, state.env.height
     got = stages["success"].close_success_q(su2)(c, h)
     np.testing.assert_allclose(got, stages["success"]._gdnet_q(su2)(c, h), rtol=1e-5, atol=1e-6)
