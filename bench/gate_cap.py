@@ -4,6 +4,12 @@ alone (no simulation): for each RUN/gate.json, the bins its gate moves in and th
 and success its table predicts, without a cap and under each cap given.
 
     python bench/gate_cap.py --caps 1.3,1.35 $(find bench/results -name gate.json)
+    python bench/gate_cap.py --bins 16 --caps 1.3 RUN/gate.json   # the same states in 16 bins
+
+``--bins K`` fits each table again over K quantile bins from the states it was measured on
+(``gate_states.npz`` beside it; ``gate_measure --refit`` without writing anything).  Where those
+states are there, each setting also gets the success on the states with 6 objects or more and
+the share of the one-object states it moves.
 
 The table's predictions are on its own states (fresh piles, GDNet's first attempts); the
 benchmark's motion number ran 0.02-0.05 above them (bench/RESULTS.md, "twentieth look").
@@ -15,8 +21,11 @@ import json
 import os
 import sys
 
+import numpy as np
+
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 from vags_jax.policies import rate_gate  # noqa: E402
+from vags_jax.stages import gate_measure  # noqa: E402
 
 
 def table_of(path: str) -> rate_gate.GateTable:
@@ -25,24 +34,56 @@ def table_of(path: str) -> rate_gate.GateTable:
         return rate_gate.from_dict(json.load(f))
 
 
-def rows(paths, caps) -> list[dict]:
-    """One dict per table: its path, and per cap (0: none) the ``moves_summary``."""
+def states_beside(path: str):
+    """The states RUN/gate.json was measured on (RUN/gate_states.npz, arrays (N,)), or None."""
+    f = os.path.join(os.path.dirname(path), gate_measure.STATES_FILE)
+    if not os.path.isfile(f):
+        return None
+    with np.load(f) as d:
+        return {k: d[k] for k in d.files}
+
+
+def on_states(table: rate_gate.GateTable, states: dict) -> dict:
+    """Where ``table`` moves on the measured states (N,): success on those with 6+ objects, and
+    the share of the one-object states moved (nan where there are none)."""
+    moves = rate_gate.moves_at(table, states["p_direct"])
+    success = np.where(moves, states["moved_success"], states["direct_success"])
+    objects = states["objects"]
+    mean = lambda x: float(np.mean(x)) if x.size else float("nan")  # noqa: E731
+    return {"success_6plus": mean(success[objects >= 6]), "moved_at_1": mean(moves[objects == 1])}
+
+
+def rows(paths, caps, bins: int = 0) -> list[dict]:
+    """One dict per table: its path, and per cap (0: none) the ``moves_summary``, with
+    ``on_states`` where the measured states are beside it; ``bins`` > 0 fits each table again
+    over that many bins of those states first (ValueError where they are missing)."""
     out = []
     for path in paths:
-        t = table_of(path)
-        out.append({"path": path, **{cap: rate_gate.moves_summary(rate_gate.capped(t, cap), cap) for cap in (0.0, *caps)}})
+        states = states_beside(path)
+        if bins:
+            t, _, states = gate_measure.refit(os.path.dirname(path), bins)
+        else:
+            t = table_of(path)
+        row = {"path": path}
+        for cap in (0.0, *caps):
+            c = rate_gate.capped(t, cap)
+            row[cap] = {**rate_gate.moves_summary(c, cap), **(on_states(c, states) if states else {})}
+        out.append(row)
     return out
 
 
 def markdown(table_rows, caps) -> str:
-    head = "| table | moves in bins | motion number | success % |" + "".join(
-        f" cap {c:g}: bins | motion number | success % |" for c in caps)
-    lines = [head, "|---|---|---:|---:|" + "---|---:|---:|" * len(caps)]
+    extra = any("success_6plus" in r[0.0] for r in table_rows)
+    per = " bins | motion number | success % |" + (" 6+ objects % | moved at 1 object % |" if extra else "")
+    head = "| table | moves in" + per + "".join(f" cap {c:g}:" + per for c in caps)
+    lines = [head, "|---|" + ("---|---:|---:|" + ("---:|---:|" if extra else "")) * (1 + len(caps))]
     for r in table_rows:
         cells = [r["path"]]
         for cap in (0.0, *caps):
             s = r[cap]
             cells += [str(s["moving_bins"]), f"{s['motion_number']:.3f}", f"{100 * s['success']:.1f}"]
+            if extra:
+                cells += [f"{100 * s[k]:.1f}" if k in s else "" for k in ("success_6plus", "moved_at_1")]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
@@ -52,6 +93,9 @@ def main(argv=None) -> int:
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("tables", nargs="+", help="RUN/gate.json files")
     p.add_argument("--caps", default="1.3,1.35", help="comma-separated motion-number caps (default: 1.3,1.35)")
+    p.add_argument("--bins", type=int, default=0,
+                   help="fit each table again over this many quantile bins of its measured states (gate_states.npz "
+                        "beside it) first; 0: the table as saved")
     args = p.parse_args(argv)
     try:
         caps = [float(c) for c in args.caps.split(",") if c]
@@ -59,7 +103,13 @@ def main(argv=None) -> int:
         p.error(f"--caps takes comma-separated numbers, got {args.caps!r}")
     if any(not 1.0 <= c <= 10.0 for c in caps):
         p.error(f"--caps: each cap is a motion number in [1, 10], got {args.caps!r}")
-    print(markdown(rows(args.tables, caps), caps))
+    if args.bins < 0:
+        p.error(f"--bins takes a number of bins (0: the table as saved), got {args.bins}")
+    try:
+        print(markdown(rows(args.tables, caps, args.bins), caps))
+    except ValueError as e:
+        print(f"gate_cap.py: {e}", file=sys.stderr)
+        return 2
     return 0
 
 

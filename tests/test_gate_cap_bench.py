@@ -24,3 +24,34 @@ def test_gate_cap_tabulates_each_tables_moves_per_cap(tmp_path, capsys):
         with pytest.raises(SystemExit) as e:
             gate_cap.main([path, "--caps", bad])
         assert e.value.code == 2
+
+
+def test_gate_cap_refits_the_measured_states_in_finer_bins(tmp_path, capsys):
+    """--bins K fits the table again from the gate_states.npz beside it; with the states there,
+    each setting also gets the success on 6+ object states and the one-object states moved."""
+    import numpy as np
+
+    from vags_jax.stages import gate_measure
+
+    # p below 0.5: direct 1 of 4, after a move 4 of 4 (one more second); above: 4 of 4 both.
+    p = np.array([0.1, 0.2, 0.3, 0.4, 0.6, 0.7, 0.8, 0.9])
+    states = {"p_direct": p, "direct_success": np.array([0, 0, 1, 0, 1, 1, 1, 1.0]), "moved_success": np.ones(8),
+              "direct_seconds": np.full(8, 5.0), "moved_seconds": np.full(8, 6.0), "direct_lost": np.zeros(8),
+              "moved_lost": np.zeros(8), "objects": np.array([1, 1, 6, 6, 1, 6, 6, 6])}
+    np.savez(tmp_path / gate_measure.STATES_FILE, **states)
+    one_bin = rate_gate.fit(p, states["direct_success"], states["direct_seconds"], states["moved_success"],
+                            states["moved_seconds"], 1)
+    path = rate_gate.save(str(tmp_path), one_bin, {"networks": "stage3 step 8"})
+    assert gate_cap.main([path, "--bins", "2", "--caps", "1.2"]) == 0
+    out = capsys.readouterr().out
+    # 2 bins: the lower one moves (12 motions / 8 grasped); its one-object states 2 of 3 moved.
+    # Cap 1.2: nothing moves, 8 / 5 = 1.6; 6+ objects 4 of 5 grasped.
+    assert f"| {path} | [0] | 1.500 | 100.0 | 100.0 | 66.7 | [] | 1.600 | 62.5 | 80.0 | 0.0 |" in out
+    alone = tmp_path / "alone"
+    alone.mkdir()
+    other = rate_gate.save(str(alone), one_bin, {})
+    assert gate_cap.main([other, "--bins", "2"]) == 2
+    assert "no measured gate table" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as e:
+        gate_cap.main([path, "--bins", "-1"])
+    assert e.value.code == 2
