@@ -65,6 +65,10 @@ def test_close_score_settings_that_cannot_work_say_what_to_fix():
         C.replace(C.Config(), **{"vags.close_score": "gdnet"})
     with pytest.raises(ValueError, match="set vags.close_score=q or vags.local_planner=gdnet"):
         C.replace(C.Config(), **{"vags.local_planner": "ggcnn", "vags.close_score": "success"})
+    with pytest.raises(ValueError, match="vags.train_close_score must be one of"):
+        C.replace(C.Config(), **{"vags.train_close_score": "ggcnn"})
+    with pytest.raises(ValueError, match="set vags.train_close_score=q or vags.local_planner=gdnet"):
+        C.replace(C.Config(), **{"vags.local_planner": "ggcnn", "vags.train_close_score": "success"})
     cfg = C.replace(C.Config(), **{"vags.close_score": "success"})
     with pytest.raises(ValueError, match="--set vags.close_score=q"):
         VagsNets(cfg).close_success_q({"gdnet": {}})
