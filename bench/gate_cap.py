@@ -59,11 +59,10 @@ def rows(paths, caps, bins: int = 0) -> list[dict]:
     over that many bins of those states first (ValueError where they are missing)."""
     out = []
     for path in paths:
-        states = states_beside(path)
         if bins:
             t, _, states = gate_measure.refit(os.path.dirname(path), bins)
         else:
-            t = table_of(path)
+            t, states = table_of(path), states_beside(path)
         row = {"path": path}
         for cap in (0.0, *caps):
             c = rate_gate.capped(t, cap)
