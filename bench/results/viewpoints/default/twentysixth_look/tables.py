@@ -99,9 +99,8 @@ def main():
     summary = print_look(RUNS, (11, 12, 13), "", "The default scenes, groups 1-10 x 50 rounds, seeds 11-13")
     rules(summary)
     more = print_look(RUNS[:2], (14, 15, 16), "more", "Seeds 14-16 (asked after the rules' evaluations had run)")
-    rules_more = {k: v for k, v in more.items()}
     print("\n| run | policy | seeds 14-16: success % | 6-10 margins | motion numbers |\n|---|---|---:|---|---|")
-    for (run, label), v in rules_more.items():
+    for (run, label), v in more.items():
         a = np.array(v)
         print(f"| {run} | {label} | {a[:, 0].mean():.1f} | {', '.join(f'{x:+.1f}' for x in a[:, 1])} | "
               f"{', '.join(f'{x:.3f}' for x in a[:, 3])} |")
