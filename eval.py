@@ -163,10 +163,11 @@ def _evaluate(args, plan, t_main: float, argv) -> int:
     extra = {"run": args.run, "checkpoint_step": step, "process_s": process}
     if policy == "vags" and cfg.vags.gate == "rate" and networks is not None and not args.no_viewpoint:
         table = rate_gate.load_table(args.run, networks.source, networks.gdnet_source,
-                                     networks.close_source, cfg.vags.max_motion_number)
+                                     networks.close_source, cfg.vags.max_motion_number, cfg.vags.cap_split)
         if table is not None:
             extra["rate_gate"] = {**rate_gate.moves_summary(table, cfg.vags.max_motion_number),
-                                  "estimate": cfg.vags.gate_estimate, "close_score": cfg.vags.close_score}
+                                  "estimate": cfg.vags.gate_estimate, "close_score": cfg.vags.close_score,
+                                  "cap_split": cfg.vags.cap_split, "edges": [round(e, 5) for e in table.edges]}
             g = extra["rate_gate"]
             log(f"rate gate: moves in bins {g['moving_bins']} of {g['bins']} (lowest p_direct, the success net's "
                 f"{g['estimate']!r} estimate, first; grasps after a move scored by {g['close_score']!r}); its table "

@@ -9,7 +9,9 @@ and success its table predicts, without a cap and under each cap given.
 ``--bins K`` fits each table again over K quantile bins from the states it was measured on
 (``gate_states.npz`` beside it; ``gate_measure --refit`` without writing anything).  Where those
 states are there, each setting also gets the success on the states with 6 objects or more and
-the share of the one-object states it moves.
+the share of the one-object states it moves, and a cap splits the last bin it drops as
+``eval.py`` does (``rate_gate.split_capped``, ``vags.cap_split``; the split adds a bin, so the
+bin indices after it shift by one); ``--whole-bins`` drops whole bins instead.
 
 The table's predictions are on its own states (fresh piles, GDNet's first attempts); the
 benchmark's motion number ran 0.02-0.05 above them (bench/RESULTS.md, "twentieth look").
@@ -53,10 +55,11 @@ def on_states(table: rate_gate.GateTable, states: dict) -> dict:
     return {"success_6plus": mean(success[objects >= 6]), "moved_at_1": mean(moves[objects == 1])}
 
 
-def rows(paths, caps, bins: int = 0) -> list[dict]:
+def rows(paths, caps, bins: int = 0, split: bool = True) -> list[dict]:
     """One dict per table: its path, and per cap (0: none) the ``moves_summary``, with
     ``on_states`` where the measured states are beside it; ``bins`` > 0 fits each table again
-    over that many bins of those states first (ValueError where they are missing)."""
+    over that many bins of those states first (ValueError where they are missing); ``split``:
+    caps split a bin where the states allow (``rate_gate.split_capped``), else drop whole bins."""
     out = []
     for path in paths:
         if bins:
@@ -64,8 +67,9 @@ def rows(paths, caps, bins: int = 0) -> list[dict]:
         else:
             t, states = table_of(path), states_beside(path)
         row = {"path": path}
+        split_here = split and rate_gate.states_match(t, states)
         for cap in (0.0, *caps):
-            c = rate_gate.capped(t, cap)
+            c = rate_gate.split_capped(t, states, cap) if split_here else rate_gate.capped(t, cap)
             row[cap] = {**rate_gate.moves_summary(c, cap), **(on_states(c, states) if states else {})}
         out.append(row)
     return out
@@ -95,6 +99,8 @@ def main(argv=None) -> int:
     p.add_argument("--bins", type=int, default=0,
                    help="fit each table again over this many quantile bins of its measured states (gate_states.npz "
                         "beside it) first; 0: the table as saved")
+    p.add_argument("--whole-bins", action="store_true",
+                   help="caps drop whole bins even where the measured states would split one (vags.cap_split=false)")
     args = p.parse_args(argv)
     try:
         caps = [float(c) for c in args.caps.split(",") if c]
@@ -105,7 +111,7 @@ def main(argv=None) -> int:
     if args.bins < 0:
         p.error(f"--bins takes a number of bins (0: the table as saved), got {args.bins}")
     try:
-        print(markdown(rows(args.tables, caps, args.bins), caps))
+        print(markdown(rows(args.tables, caps, args.bins, split=not args.whole_bins), caps))
     except ValueError as e:
         print(f"gate_cap.py: {e}", file=sys.stderr)
         return 2

@@ -55,3 +55,28 @@ def test_gate_cap_refits_the_measured_states_in_finer_bins(tmp_path, capsys):
     with pytest.raises(SystemExit) as e:
         gate_cap.main([path, "--bins", "-1"])
     assert e.value.code == 2
+
+
+def test_gate_cap_splits_a_bin_where_the_states_allow(tmp_path, capsys):
+    """With the measured states beside the table, a cap splits the last bin it drops, as eval.py
+    does; --whole-bins drops it whole."""
+    import numpy as np
+
+    # Two bins of 4: direct 1 of 4 and 3 of 4 (failing at p 0.6), after a move 4 of 4 both.
+    p = np.array([0.1, 0.2, 0.3, 0.4, 0.6, 0.7, 0.8, 0.9])
+    states = {"p_direct": p, "direct_success": np.array([0, 0, 1, 0, 0, 1, 1, 1.0]), "moved_success": np.ones(8),
+              "direct_seconds": np.full(8, 5.0), "moved_seconds": np.full(8, 5.5), "direct_lost": np.zeros(8),
+              "moved_lost": np.zeros(8), "objects": np.full(8, 6)}
+    np.savez(tmp_path / rate_gate.STATES_FILE, **states)
+    t = rate_gate.fit(p, states["direct_success"], states["direct_seconds"], states["moved_success"],
+                      states["moved_seconds"], 2)
+    path = rate_gate.save(str(tmp_path), t, {"networks": "stage3 step 8"})
+    # Both bins move: 16 / 8 = 2.0.  Cap 1.7, whole bins: bin 1 (gain 0.25) goes, 12 / 7 = 1.714,
+    # then bin 0, 8 / 4 = 2.0: nothing moves.  Split: bin 1's lowest state (p 0.6, a failure)
+    # moves, on top of bin 0: 13 / 8 = 1.625.
+    assert gate_cap.main([path, "--caps", "1.7"]) == 0
+    assert f"| {path} | [0, 1] | 2.000 | 100.0 | 100.0 | | [0, 1] | 1.625 | 100.0 | 100.0 |" in \
+        capsys.readouterr().out.replace(" nan |", " |").replace("|  |", "| |")
+    assert gate_cap.main([path, "--caps", "1.7", "--whole-bins"]) == 0
+    assert f"| {path} | [0, 1] | 2.000 | 100.0 | 100.0 | | [] | 2.000 | 50.0 | 50.0 |" in \
+        capsys.readouterr().out.replace(" nan |", " |").replace("|  |", "| |")

@@ -1,6 +1,7 @@
 """The "rate" gate (vags_jax/policies/rate_gate.py): Dinkelbach's choice, the binned table, the
 lookup inside the decision, RUN/gate.json; expectations worked out by hand."""
 import json
+import os
 
 import jax.numpy as jnp
 import numpy as np
@@ -240,3 +241,71 @@ def test_eval_py_loads_the_networks_with_the_set_cap_and_gdnet_pick(tmp_path, mo
     assert seen[-1].vags.close_score == "q"  # read where the networks are used, not where they load
     requests._run_config(args, "vags", {"benchmark.rounds": 3})
     assert seen[-1] is None  # the run's own config
+
+
+def _split_states(p=None):
+    # 30 states in three bins of 10 by p: direct grasps succeed 5/10, 8/10 (failing at the bin's
+    # 1st and 6th lowest p) and 10/10; after a move all succeed; a move adds 2 s to 10 s.
+    p = np.arange(30) / 30.0 if p is None else np.asarray(p)
+    direct = np.ones(30)
+    direct[0:10:2] = 0.0
+    direct[[10, 15]] = 0.0
+    return {"p_direct": p, "direct_success": direct, "moved_success": np.ones(30),
+            "direct_seconds": np.full(30, 10.0), "moved_seconds": np.full(30, 12.0),
+            "direct_lost": np.zeros(30), "moved_lost": np.zeros(30), "objects": np.full(30, 5)}
+
+
+def _fit(s):
+    return rate_gate.fit(s["p_direct"], s["direct_success"], s["direct_seconds"], s["moved_success"],
+                         s["moved_seconds"], 3, lost_direct=s["direct_lost"], lost_moved=s["moved_lost"])
+
+
+def test_the_split_cap_moves_part_of_the_bin_whole_bins_would_drop(tmp_path):
+    s = _split_states()
+    t = _fit(s)
+    assert t.states == (10, 10, 10) and rate_gate.moves_summary(t)["moving_bins"] == [0, 1]
+    # Uncapped: 50 motions for 30 grasped objects.  Whole bins under a cap of 1.55 drop bin 1
+    # (gain 0.2 < 0.5): 40 motions for 28 objects = 1.429, far under the cap.
+    assert rate_gate.motion_number(t, [True, True, False]) == pytest.approx(50 / 30)
+    whole = rate_gate.capped(t, 1.55)
+    assert rate_gate.moves_summary(whole)["moving_bins"] == [0]
+    # Split: moving bin 1's m lowest states gives (40 + m) motions for 28 + (its failures among
+    # them) objects: m = 6 -> 46 / 30 = 1.533 (m = 7: 47 / 30 = 1.567 > 1.55).  The cut is at the
+    # 7th state's p; the lower part holds both failures (direct 4/6), the upper none.
+    sp = rate_gate.split_capped(t, s, 1.55)
+    assert sp.states == (10, 6, 4, 10)
+    assert sp.edges[1] == pytest.approx(16 / 30) and sp.edges[0] == t.edges[0] and sp.edges[2] == t.edges[1]
+    assert sp.direct == pytest.approx((0.5, 4 / 6, 1.0, 1.0)) and sp.moved == pytest.approx((1, 1, 1, 1))
+    assert sp.extra_seconds == pytest.approx((2, 2, 2, 2)) and sp.rate == t.rate
+    assert sp.move_value[1] == pytest.approx((1 - 4 / 6) - 2 * t.rate) and sp.move_value[2] < 0
+    assert rate_gate.moves_summary(sp)["moving_bins"] == [0, 1]
+    assert rate_gate.motion_number(sp, np.asarray(sp.move_value) > 0) == pytest.approx(46 / 30)
+    # The decision moves exactly the 16 lowest states.
+    assert rate_gate.moves_at(sp, s["p_direct"]).tolist() == [True] * 16 + [False] * 14
+    # A cap every whole-bin choice already meets, or no cap, leaves the table as capped does.
+    assert rate_gate.split_capped(t, s, 1.7).move_value == t.move_value
+    assert rate_gate.split_capped(t, s, 0.0) is t
+    # A cut never separates equal p: with the 6th and 7th equal, m = 6 cannot be cut, m = 5 is
+    # over the cap (45 / 29), and m = 4 (44 / 29 = 1.517) is taken.
+    p = np.arange(30) / 30.0
+    p[16] = p[15]
+    s2 = _split_states(p)
+    assert rate_gate.split_capped(_fit(s2), s2, 1.55).states == (10, 4, 6, 10)
+
+
+def test_a_loaded_cap_splits_only_with_the_states_the_table_was_fit_on(tmp_path):
+    s = _split_states()
+    t = _fit(s)
+    d = str(tmp_path)
+    rate_gate.save(d, t, {"networks": "stage3 step 8"})
+    assert rate_gate.load_table(d, max_motion_number=1.55).states == (10, 10, 10)  # no states: whole bins
+    np.savez(os.path.join(d, rate_gate.STATES_FILE), **s)
+    assert rate_gate.states_match(t, rate_gate.read_states(d))
+    assert rate_gate.load_table(d, max_motion_number=1.55).states == (10, 6, 4, 10)
+    assert rate_gate.load(d, max_motion_number=1.55).shape == (2, 4)
+    assert rate_gate.load_table(d, max_motion_number=1.55, split=False).states == (10, 10, 10)
+    assert rate_gate.load_table(d).states == (10, 10, 10)  # no cap: the table as measured
+    # States that are not the table's (here one missing) are not used: whole bins.
+    np.savez(os.path.join(d, rate_gate.STATES_FILE), **{k: v[1:] for k, v in s.items()})
+    assert not rate_gate.states_match(t, rate_gate.read_states(d))
+    assert rate_gate.load_table(d, max_motion_number=1.55).states == (10, 10, 10)

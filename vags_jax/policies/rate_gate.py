@@ -17,6 +17,10 @@ knocked off) and a move must also pay for the objects it knocks off.
 ``vags.max_motion_number`` caps the moves when the table is loaded (``capped``): moving bins are
 dropped, the smallest success gain first, until the motion number the table predicts is at most
 the cap (the issue's goal is a motion number below 1.35; picks per hour alone may move more).
+Whole bins are coarse (eighths of the states: one bin fewer can fall far below the cap), so with
+the states the table was measured on (``STATES_FILE`` beside gate.json) the last bin the cap drops
+is split, and its lowest-p_direct states move as far as the cap allows (``split_capped``;
+``vags.cap_split``).
 
 Stored as ``RUN/gate.json`` (``save`` / ``load``); ``GateTable.array()`` is the (2, K) array the
 jitted decision reads (``move_value``).
@@ -33,6 +37,7 @@ import jax.numpy as jnp
 import numpy as np
 
 GATE_FILE = "gate.json"
+STATES_FILE = "gate_states.npz"  # the per-state rows a table was fit on (stages.gate_measure)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -132,6 +137,97 @@ def capped(table: GateTable, max_motion_number: float) -> GateTable:
     return dataclasses.replace(table, move_value=tuple(float(v) for v in kept))
 
 
+def _bin_means(states: dict, mask: np.ndarray, rate: float, count_lost: bool) -> dict:
+    """One bin's fields (as ``fit`` computes them) over the states ``mask`` (N,) bool selects."""
+    mean = lambda k: float(np.mean(np.asarray(states[k], np.float64)[mask]))  # noqa: E731
+    sd, sm = mean("direct_success"), mean("moved_success")
+    extra = mean("moved_seconds") - mean("direct_seconds")
+    out = {"states": int(np.sum(mask)), "direct": sd, "moved": sm, "extra_seconds": extra}
+    if "direct_lost" in states:
+        out["lost_direct"], out["lost_moved"] = mean("direct_lost"), mean("moved_lost")
+    gd, gm = (sd - out["lost_direct"], sm - out["lost_moved"]) if count_lost else (sd, sm)
+    out["move_value"] = (gm - gd) - rate * extra
+    return out
+
+
+def states_match(table: GateTable, states: Optional[dict]) -> bool:
+    """Whether ``states`` (``STATES_FILE``'s arrays) are the states ``table`` was fit on: its
+    p_direct fall into the table's bins in the table's counts."""
+    if states is None or "p_direct" not in states:
+        return False
+    p = np.asarray(states["p_direct"], np.float64)
+    k = np.searchsorted(np.asarray(table.edges, np.float64), p, side="right")
+    return bool(np.array_equal(np.bincount(k, minlength=len(table.states)), np.asarray(table.states)))
+
+
+def split_capped(table: GateTable, states: dict, max_motion_number: float) -> GateTable:
+    """``capped`` at the grain of single states: the moving bins are taken in order of success
+    gain (largest first, the reverse of the order ``capped`` drops them), the first i of them
+    whole and the m lowest-p_direct states of the next one, with m as large as keeps the
+    predicted ``motion_number`` at most the cap and those states' move value positive, and i as
+    large as allows such an m.  Moving as many states as the cap allows, rather than the ones
+    whose single measured outcomes gained, keeps the cut from chasing those outcomes' noise.
+    A split bin becomes two, with its states' means (``states``: ``STATES_FILE``'s (N,) arrays,
+    which ``states_match`` the table), the upper part's move value negated like a dropped
+    bin's.  Returns ``capped``'s table where the cap drops nothing or no split moves more than
+    its whole bins; else a table of K + 1 bins, the rate unchanged."""
+    whole = capped(table, max_motion_number)
+    value = np.asarray(table.move_value, np.float64)
+    if max_motion_number <= 0 or np.array_equal(np.asarray(whole.move_value, np.float64), value):
+        return whole
+    moved, direct = np.asarray(table.moved, np.float64), np.asarray(table.direct, np.float64)
+    n = np.asarray(table.states, np.float64)
+    order = sorted(np.flatnonzero(value > 0), key=lambda b: -(moved - direct)[b])
+    edges = np.asarray(table.edges, np.float64)
+    p = np.asarray(states["p_direct"], np.float64)
+    bin_of = np.searchsorted(edges, p, side="right")
+    col = {key: np.asarray(states[key], np.float64) for key in
+           ("direct_success", "moved_success", "direct_seconds", "moved_seconds")}
+    if table.count_lost:
+        col["direct_lost"], col["moved_lost"] = (np.asarray(states[k], np.float64) for k in ("direct_lost", "moved_lost"))
+    best = None  # (i, k, cut) of the largest i with a split under the cap
+    for i, k in enumerate(order):
+        base = np.isin(np.arange(n.size), order[:i])
+        idx = np.flatnonzero(bin_of == k)
+        idx = idx[np.argsort(p[idx], kind="stable")]
+        ps, gain = p[idx], col["moved_success"][idx] - col["direct_success"][idx]
+        net = gain - (col["moved_lost"][idx] - col["direct_lost"][idx] if table.count_lost else 0.0)
+        worth = np.cumsum(net - table.rate * (col["moved_seconds"][idx] - col["direct_seconds"][idx])) > 0
+        grasped = np.sum(n * np.where(base, moved, direct)) + np.cumsum(gain)
+        motions = np.sum(n * (1.0 + base)) + np.arange(1, ps.size + 1)
+        cut_ok = np.append(ps[:-1] < ps[1:], False)  # a cut between distinct values keeps exactly m below it
+        ok = (motions / np.maximum(grasped, 1e-12) <= max_motion_number) & worth & cut_ok
+        if ok.any():
+            m = int(np.flatnonzero(ok)[-1])  # index of the last state moved
+            best = (i, k, float(ps[m + 1]))
+    if best is None or best[0] < int(np.sum(np.asarray(whole.move_value) > 0)):
+        return whole  # a split would move fewer bins than capped's whole ones
+    i, k, cut = best
+    moving = set(int(b) for b in order[:i])
+    value_now = tuple(float(v) if (v <= 0 or b in moving) else -float(v) for b, v in enumerate(value))
+    table_now = dataclasses.replace(table, move_value=value_now)
+    in_k = bin_of == k
+    parts = [_bin_means(states, in_k & (p < cut), table.rate, table.count_lost),
+             _bin_means(states, in_k & (p >= cut), table.rate, table.count_lost)]
+    parts[1]["move_value"] = -abs(parts[1]["move_value"])
+    names = ["states", "direct", "moved", "extra_seconds", "move_value"] + (["lost_direct", "lost_moved"]
+                                                                           if table.lost_direct else [])
+    fields = {}
+    for name in names:
+        old = list(getattr(table_now, name))
+        fields[name] = tuple(old[:k] + [type(old[k])(parts[0][name]), type(old[k])(parts[1][name])] + old[k + 1:])
+    return dataclasses.replace(table_now, edges=tuple(float(e) for e in np.insert(edges, k, cut)), **fields)
+
+
+def read_states(run_dir: str) -> Optional[dict]:
+    """RUN/``STATES_FILE``'s arrays, or None when the run has none."""
+    path = os.path.join(run_dir, STATES_FILE)
+    if not os.path.isfile(path):
+        return None
+    with np.load(path) as f:
+        return {k: f[k] for k in f.files}
+
+
 def moves_summary(table: GateTable, max_motion_number: float = 0.0) -> dict:
     """What the decision plays from ``table`` (already ``capped``): the bins it moves in
     (indices from the lowest p_direct), of how many, the motion number and success the table
@@ -194,8 +290,11 @@ def read(run_dir: str) -> Optional[dict]:
 
 
 def load_table(run_dir: str, networks: Optional[str] = None, gdnet: Optional[str] = None,
-               close_gdnet: Optional[str] = None, max_motion_number: float = 0.0) -> Optional[GateTable]:
-    """RUN/gate.json -> its ``GateTable``, ``capped`` at ``max_motion_number`` (0: no cap); None
+               close_gdnet: Optional[str] = None, max_motion_number: float = 0.0,
+               split: bool = True) -> Optional[GateTable]:
+    """RUN/gate.json -> its ``GateTable``, capped at ``max_motion_number`` (0: no cap): by
+    ``split_capped`` when ``split`` and RUN/``STATES_FILE`` holds the states it was fit on, else
+    by whole bins (``capped``); None
     when the run has none, or when ``networks`` (e.g. "stage3 step 80") is not the networks it
     was measured on, ``gdnet`` not their direct grasps' GDNet (its "gdnet"; tables from before
     it was kept: ``networks``) or ``close_gdnet`` not the GDNet of their grasps after a move (its
@@ -210,7 +309,12 @@ def load_table(run_dir: str, networks: Optional[str] = None, gdnet: Optional[str
         return None
     if close_gdnet is not None and d.get("close_gdnet", kept) != close_gdnet:
         return None
-    return capped(from_dict(d), max_motion_number)
+    table = from_dict(d)
+    if split and max_motion_number > 0:
+        states = read_states(run_dir)
+        if states_match(table, states):
+            return split_capped(table, states, max_motion_number)
+    return capped(table, max_motion_number)
 
 
 def estimate_of(run_dir: str) -> str:
@@ -234,10 +338,11 @@ def from_dict(d: dict) -> GateTable:
 
 
 def load(run_dir: str, networks: Optional[str] = None, gdnet: Optional[str] = None,
-         close_gdnet: Optional[str] = None, max_motion_number: float = 0.0) -> Optional[np.ndarray]:
+         close_gdnet: Optional[str] = None, max_motion_number: float = 0.0,
+         split: bool = True) -> Optional[np.ndarray]:
     """``load_table``'s table as the (2, K) float32 array the decision reads (``GateTable.array``);
     None where it gives None."""
-    table = load_table(run_dir, networks, gdnet, close_gdnet, max_motion_number)
+    table = load_table(run_dir, networks, gdnet, close_gdnet, max_motion_number, split)
     return None if table is None else table.array()
 
 

@@ -52,7 +52,7 @@ from vags_jax.stages import checkpoint, rundir
 from vags_jax.stages.programs import Programs
 
 PROG = "python -m vags_jax.stages.gate_measure"
-STATES_FILE = "gate_states.npz"
+STATES_FILE = rate_gate.STATES_FILE
 FOLLOW = ("direct", "moved")  # the branch the piles follow from one measured state to the next
 
 
