@@ -309,3 +309,13 @@ def test_a_loaded_cap_splits_only_with_the_states_the_table_was_fit_on(tmp_path)
     np.savez(os.path.join(d, rate_gate.STATES_FILE), **{k: v[1:] for k, v in s.items()})
     assert not rate_gate.states_match(t, rate_gate.read_states(d))
     assert rate_gate.load_table(d, max_motion_number=1.55).states == (10, 10, 10)
+
+
+def test_the_split_cap_needs_every_column_it_splits():
+    # States saved without the objects knocked off cannot give a table that records them its
+    # split parts: the cap drops whole bins there.
+    s = _split_states()
+    t = _fit(s)
+    short = {k: v for k, v in s.items() if k not in ("direct_lost", "moved_lost")}
+    assert rate_gate.split_capped(t, short, 1.55).states == (10, 10, 10)
+    assert rate_gate.split_capped(t, s, 1.55).lost_direct == pytest.approx((0, 0, 0, 0))

@@ -169,11 +169,15 @@ def split_capped(table: GateTable, states: dict, max_motion_number: float) -> Ga
     whose single measured outcomes gained, keeps the cut from chasing those outcomes' noise.
     A split bin becomes two, with its states' means (``states``: ``STATES_FILE``'s (N,) arrays,
     which ``states_match`` the table), the upper part's move value negated like a dropped
-    bin's.  Returns ``capped``'s table where the cap drops nothing or no split moves more than
-    its whole bins; else a table of K + 1 bins, the rate unchanged."""
+    bin's.  Returns ``capped``'s table where the cap drops nothing, the states lack a column the
+    split needs (the objects knocked off, for a table that records them), or no split moves more
+    than its whole bins; else a table of K + 1 bins, the rate unchanged."""
     whole = capped(table, max_motion_number)
     value = np.asarray(table.move_value, np.float64)
-    if max_motion_number <= 0 or np.array_equal(np.asarray(whole.move_value, np.float64), value):
+    need = ("p_direct", "direct_success", "moved_success", "direct_seconds", "moved_seconds") + (
+        ("direct_lost", "moved_lost") if (table.lost_direct or table.count_lost) else ())
+    if (max_motion_number <= 0 or np.array_equal(np.asarray(whole.move_value, np.float64), value)
+            or any(k not in states for k in need)):
         return whole
     moved, direct = np.asarray(table.moved, np.float64), np.asarray(table.direct, np.float64)
     n = np.asarray(table.states, np.float64)
