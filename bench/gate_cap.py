@@ -36,15 +36,6 @@ def table_of(path: str) -> rate_gate.GateTable:
         return rate_gate.from_dict(json.load(f))
 
 
-def states_beside(path: str):
-    """The states RUN/gate.json was measured on (RUN/gate_states.npz, arrays (N,)), or None."""
-    f = os.path.join(os.path.dirname(path), gate_measure.STATES_FILE)
-    if not os.path.isfile(f):
-        return None
-    with np.load(f) as d:
-        return {k: d[k] for k in d.files}
-
-
 def on_states(table: rate_gate.GateTable, states: dict) -> dict:
     """Where ``table`` moves on the measured states (N,): success on those with 6+ objects, and
     the share of the one-object states moved (nan where there are none)."""
@@ -65,7 +56,7 @@ def rows(paths, caps, bins: int = 0, split: bool = True) -> list[dict]:
         if bins:
             t, _, states = gate_measure.refit(os.path.dirname(path), bins)
         else:
-            t, states = table_of(path), states_beside(path)
+            t, states = table_of(path), rate_gate.read_states(os.path.dirname(path))
         row = {"path": path}
         split_here = split and rate_gate.states_match(t, states)
         for cap in (0.0, *caps):

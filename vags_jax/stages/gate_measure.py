@@ -285,13 +285,11 @@ def refit(run_dir: str, bins: int, estimate: Optional[str] = None):
     table was fit on), keeping its networks and other settings -> (GateTable, meta, states), for
     ``save_all``; the states' p_direct becomes that estimate.  ValueError when the run has no
     table or no saved states, or states measured before that estimate was recorded."""
-    d = rate_gate.read(run_dir)
+    d, states = rate_gate.read(run_dir), rate_gate.read_states(run_dir)
     path = os.path.join(run_dir, STATES_FILE)
-    if d is None or not os.path.isfile(path):
+    if d is None or states is None:
         raise ValueError(f"{run_dir} has no measured gate table ({rate_gate.GATE_FILE} and {STATES_FILE}) to fit "
                          f"again; measure one first: {PROG} --run {run_dir}")
-    with np.load(path) as f:
-        states = {k: f[k] for k in f.files}
     was = str(d.get("estimate", "grasp"))
     estimate = was if estimate is None else estimate
     if estimate != was:
