@@ -731,10 +731,11 @@ class Vags:
       grasped object on the table's states) is at most the cap.  The table's prediction ran
       0.02-0.05 below the benchmark's (bench/RESULTS.md, "Viewpoints that pay, twentieth
       look").  Read when the table is loaded (eval.py, predict): ``--set`` it on any run.
-    cap_split: under ``max_motion_number``, split the last bin the cap drops and move its
-      lowest-p_direct states as far as the cap allows (``rate_gate.split_capped``), from the
-      states the table was measured on (RUN/gate_states.npz); False, or a run without those
-      states: drop whole bins, as before this field.  Read when the table is loaded.
+    cap_split: under ``max_motion_number``, take the moving bins by success gain and split the
+      next one, its lowest-p_direct states moving as far as the cap allows
+      (``rate_gate.split_capped``), from the states the table was measured on
+      (RUN/gate_states.npz); False, or a run without those states: drop whole bins, as before
+      this field.  Read when the table is loaded.
     train_ggcnn: the pipeline (train.py with no --stage) also trains GG-CNN when local_planner
       is "gdnet", which does not use it (for eval.py --policy ggcnn / ggcnn-close); with "ggcnn"
       it always does.  ``train.py --stage ggcnn --out RUN`` adds one to a run later.

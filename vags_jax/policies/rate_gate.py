@@ -18,9 +18,9 @@ knocked off) and a move must also pay for the objects it knocks off.
 dropped, the smallest success gain first, until the motion number the table predicts is at most
 the cap (the issue's goal is a motion number below 1.35; picks per hour alone may move more).
 Whole bins are coarse (eighths of the states: one bin fewer can fall far below the cap), so with
-the states the table was measured on (``STATES_FILE`` beside gate.json) the last bin the cap drops
-is split, and its lowest-p_direct states move as far as the cap allows (``split_capped``;
-``vags.cap_split``).
+the states the table was measured on (``STATES_FILE`` beside gate.json) the moving bins are taken
+by success gain and the next one is split, its lowest-p_direct states moving as far as the cap
+allows (``split_capped``; ``vags.cap_split``).
 
 Stored as ``RUN/gate.json`` (``save`` / ``load``); ``GateTable.array()`` is the (2, K) array the
 jitted decision reads (``move_value``).
