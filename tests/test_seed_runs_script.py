@@ -100,3 +100,7 @@ def test_goals_missed_names_each_goal_with_its_figure():
     assert seed_runs.goals_missed(worse, ablation, 12) == (
         "seed 12: success 84.0 %, 6-10 margin +0.0, 6-10 clearing -50.0, motion number 1.350, "
         "moves at 1 object 20.0 %")
+    # Reports without groups of 6-10 objects (a small benchmark) have no 6-10 margin to miss.
+    small = _report(0.9, 8, 0.0)
+    small["groups_metrics"] = small["groups_metrics"][:1]
+    assert seed_runs.goals_missed(small, small, 13) == "" and not seed_runs.has_6_10(small)
