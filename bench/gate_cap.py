@@ -9,12 +9,13 @@ and success its table predicts, without a cap and under each cap given.
 ``--bins K`` fits each table again over K quantile bins from the states it was measured on
 (``gate_states.npz`` beside it; ``gate_measure --refit`` without writing anything).  Where those
 states are there, each setting also gets the success on the states with 6 objects or more and
-the share of the one-object states it moves, and a cap splits the last bin it drops as
-``eval.py`` does (``rate_gate.split_capped``, ``vags.cap_split``; the split adds a bin, so the
+the share of the one-object states it moves, and a cap takes the moving bins by success gain
+and splits the next one, as ``eval.py`` does (``rate_gate.split_capped``, ``vags.cap_split``; the split adds a bin, so the
 bin indices after it shift by one); ``--whole-bins`` drops whole bins instead.
 
 The table's predictions are on its own states (fresh piles, GDNet's first attempts); the
-benchmark's motion number ran 0.02-0.05 above them (bench/RESULTS.md, "twentieth look").
+benchmark's motion number ran 0.028 above them on average, up to 0.071, over 30 evaluations
+(bench/RESULTS.md, "twenty-seventh look").
 """
 from __future__ import annotations
 

@@ -127,7 +127,7 @@ def local_gpus() -> list[int]:
         lines = subprocess.run(["nvidia-smi", "-L"], capture_output=True, text=True, timeout=30).stdout.splitlines()
     except (OSError, subprocess.SubprocessError):
         return []
-    return [i for i, line in enumerate(x for x in lines if x.startswith("GPU "))]
+    return list(range(sum(line.startswith("GPU ") for line in lines)))
 
 
 def has_6_10(report: dict) -> bool:
@@ -184,8 +184,8 @@ def summary(out: str) -> str:
                 margins = ", ".join(
                     f"{100 * (pooled(per[s][1], 6, 10)[0] - pooled(base[s][1], 6, 10)[0]):+.1f}"
                     if s in base and has_6_10(per[s][1]) and has_6_10(base[s][1]) else "n/a" for s in seeds)
-                missed = "; ".join(goals_missed(per[s][1], base[s][1], s) for s in seeds if s in base
-                                   and goals_missed(per[s][1], base[s][1], s)) or "none"
+                missed = "; ".join(filter(None, (goals_missed(per[s][1], base[s][1], s) for s in seeds
+                                                 if s in base))) or "none"
             succ = [100 * r["success"] for r in rows]
             motions = ", ".join(f"{r['motion_number']:.3f}" for r in rows)
             one = ", ".join(f"{100 * r['viewpoint_1']:.1f}" for r in rows)
