@@ -86,6 +86,8 @@ def test_each_gpu_trains_then_evaluates_and_the_table_gives_the_margins(tmp_path
     assert ("| 2 | vags | 11,12 | 90.0-90.0 | +20.0, +20.0 | 1.200, 1.200 | 50.0, 50.0 | "
             "seed 11: moves at 1 object 50.0 %; seed 12: moves at 1 object 50.0 % |") in table
     assert "| 3 | ablation | 11,12 | 80.0-80.0 |  | 1.200, 1.200 | 0.0, 0.0 |  |" in table
+    # The tally over both trainings: four seed evaluations of VAGS, each missing only the one-object goal.
+    assert "| vags | 4 | 0 | 4/4 | 4/4 | 4/4 | 4/4 | 0/4 |" in table and "| ablation |" not in table.split("Seed evaluations")[1]
     assert seed_runs.main(["--summary", str(tmp_path)]) == 0 and "| 3 | vags |" in capsys.readouterr().out
     with pytest.raises(SystemExit):
         seed_runs.main(["--seeds", "2,2", "--out", str(tmp_path)])
@@ -104,3 +106,6 @@ def test_goals_missed_names_each_goal_with_its_figure():
     small = _report(0.9, 8, 0.0)
     small["groups_metrics"] = small["groups_metrics"][:1]
     assert seed_runs.goals_missed(small, small, 13) == "" and not seed_runs.has_6_10(small)
+    # Such a report is not judged on the 6-10 goals in the tally either: n/a, not a miss.
+    assert seed_runs.tally({"vags": [seed_runs.goal_checks(small, small)]}).splitlines()[-1] == (
+        "| vags | 1 | 1 | 1/1 | n/a | n/a | 1/1 | 1/1 |")
