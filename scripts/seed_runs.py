@@ -155,10 +155,15 @@ def goal_checks(vags: dict, ablation: dict) -> list[tuple[str, bool, str]]:
     return checks
 
 
-def goals_missed(vags: dict, ablation: dict, seed: int) -> str:
-    """The goals of ``goal_checks`` one VAGS report misses, as text ("" if none)."""
-    bad = [text for _, ok, text in goal_checks(vags, ablation) if not ok]
+def missed_text(checks: list[tuple[str, bool, str]], seed: int) -> str:
+    """The goals ``checks`` (``goal_checks``) misses on one seed, as text ("" if none)."""
+    bad = [text for _, ok, text in checks if not ok]
     return f"seed {seed}: " + ", ".join(bad) if bad else ""
+
+
+def goals_missed(vags: dict, ablation: dict, seed: int) -> str:
+    """The goals one VAGS report misses against its ablation's, as text ("" if none)."""
+    return missed_text(goal_checks(vags, ablation), seed)
 
 
 def tally(counts: dict) -> str:
@@ -208,9 +213,9 @@ def summary(out: str) -> str:
                 margins = ", ".join(
                     f"{100 * (pooled(per[s][1], 6, 10)[0] - pooled(base[s][1], 6, 10)[0]):+.1f}"
                     if s in base and has_6_10(per[s][1]) and has_6_10(base[s][1]) else "n/a" for s in seeds)
-                missed = "; ".join(filter(None, (goals_missed(per[s][1], base[s][1], s) for s in seeds
-                                                 if s in base))) or "none"
-                counts.setdefault(e, []).extend(goal_checks(per[s][1], base[s][1]) for s in seeds if s in base)
+                checks = {s: goal_checks(per[s][1], base[s][1]) for s in seeds if s in base}
+                missed = "; ".join(filter(None, (missed_text(c, s) for s, c in checks.items()))) or "none"
+                counts.setdefault(e, []).extend(checks.values())
             succ = [100 * r["success"] for r in rows]
             motions = ", ".join(f"{r['motion_number']:.3f}" for r in rows)
             one = ", ".join(f"{100 * r['viewpoint_1']:.1f}" for r in rows)
