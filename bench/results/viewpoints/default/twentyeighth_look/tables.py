@@ -5,14 +5,12 @@ VAGS uncapped and VAGS under the split motion cap of 1.28; the rule fixed before
 tables' predicted motion numbers against the benchmark's; s6's Fig. 6 sweep under the cap; and
 the same four seeds trained on a first machine that was lost (``lost_machine/``, seed 11 only).
 Run from anywhere: python bench/results/viewpoints/default/twentyeighth_look/tables.py"""
-import json
 import os
 import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.abspath(os.path.join(HERE, *[os.pardir] * 5))
 sys.path[:0] = [REPO, os.path.join(REPO, "bench"), os.path.join(REPO, "scripts")]
-from vags_jax.policies import rate_gate  # noqa: E402
 from viewpoint_goals import pooled, read_report, row  # noqa: E402
 import gate_cap  # noqa: E402
 import seed_runs  # noqa: E402
@@ -41,8 +39,7 @@ def details(base, seeds):
     gaps = {"vags": [], "cap1.28": []}
     for t in TRAININGS:
         free, capped = predictions(base, t)
-        with open(os.path.join(base, f"s{t}", "run", "gate.json")) as f:
-            moving = rate_gate.moves_summary(rate_gate.from_dict(json.load(f)))["moving_bins"]
+        moving = free["moving_bins"]
         for e, pred in (("vags", free), ("cap1.28", capped)):
             for s in seeds:
                 v, a = report(base, t, e, s), report(base, t, "ablation", s)
