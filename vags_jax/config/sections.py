@@ -730,7 +730,7 @@ class Vags:
       the smallest success gain first, until the motion number its table predicts (motions per
       grasped object on the table's states) is at most the cap.  The table's prediction ran
       about 0.02-0.04 below the benchmark's on average (bench/RESULTS.md, "Viewpoints that
-      pay", twentieth, twenty-seventh and twenty-eighth looks).  Read when the table is loaded
+      pay", twentieth and twenty-seventh to twenty-ninth looks).  Read when the table is loaded
       (eval.py, predict): ``--set`` it on any run.
     cap_split: under ``max_motion_number``, take the moving bins by success gain and split the
       next one, its lowest-p_direct states moving as far as the cap allows
