@@ -3,7 +3,8 @@ pipelines, training seeds 10-13 (``s<S>/``), two at a time on one 2 x H200 machi
 (``driver.sh``, through ``scripts/seed_runs.py``), each evaluated on seeds 11-13, groups 1-10 x
 50 rounds, as the ablation, VAGS uncapped and VAGS under the split motion cap of 1.28; the
 tables' predicted motion numbers against the benchmark's; the rule fixed in the twenty-eighth
-look; s10's Fig. 6 sweep under the cap; and, for context only, the tally over both looks.
+look; s10's Fig. 6 sweep under the cap; and, for context only, the tally over both looks and
+each evaluation's success after a move and direct on 6-10 objects in both looks.
 Run from anywhere: python bench/results/viewpoints/default/twentyninth_look/tables.py"""
 import os
 import sys
@@ -81,6 +82,28 @@ def both_looks():
         print(f"{e}: every goal met on {a} of 12 (twenty-eighth look) + {b} of 12 (this look) = {a + b} of 24")
 
 
+def branches():
+    """Both looks, 6-10 objects pooled over seeds 11-13: the 6-10 success of each evaluation,
+    the share of attempts after a move, and the success of grasps after a move and of direct
+    ones (each group's rates weighted by its attempts)."""
+    print("\n| training | evaluation | 6-10 attempts | moved % | success after a move % | direct success % | 6-10 success % |")
+    print("|---|---|---:|---:|---:|---:|---:|")
+    for base, trainings in ((LAST_LOOK, (6, 7, 8, 9)), (HERE, TRAININGS)):
+        for t in trainings:
+            for e in ("ablation", "vags", "cap1.28"):
+                att = moved = after = direct = wins = 0
+                for s in SEEDS:
+                    for g in report(base, t, e, s)["groups_metrics"]:
+                        if 6 <= g["n_objects"] <= 10:
+                            m = round(g["attempts"] * g["viewpoint_rate"])
+                            att, moved, wins = att + g["attempts"], moved + m, wins + g["successes"]
+                            after += (g["success_after_move"] or 0.0) * m  # None where nothing moved
+                            direct += g["success_direct"] * (g["attempts"] - m)
+                print(f"| s{t} | {e} | {att} | {100 * moved / att:.1f} | "
+                      f"{f'{100 * after / moved:.1f}' if moved else 'n/a'} | {100 * direct / (att - moved):.1f} | "
+                      f"{100 * wins / att:.1f} |")
+
+
 def sweep():
     rows = read_report(os.path.join(HERE, "s10", "sweep", "eval_vags_r20_sweep.json"))["rows"]
     print("\n| threshold (rate gate's move value) | success % | clearing % | motion number | moves % | picks/h |")
@@ -97,6 +120,7 @@ def main():
     print()
     rule()
     both_looks()
+    branches()
     sweep()
 
 
