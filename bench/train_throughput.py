@@ -21,7 +21,12 @@ iteration's time goes, and the DQN update's model FLOP utilisation in bf16.
    ``--trunks`` (DenseNet-121 at the config's heightmap size and rotations); and the update's
    parts: the target pass (its rotated inputs, trunks + head, maps back to the heightmap) and the
    online network's forward + backward pass, each jitted alone.
+``--updates-only`` measures 3 alone: no environment is built, so it needs neither MuJoCo nor the
+physics' compile time (for DenseNet-121 on a machine whose time is short).
 Writes every figure to --out as JSON.  Timings mean something on a GPU only (bench/RESULTS.md).
+
+    python bench/train_throughput.py --config gpu --updates-only --out runs/mfu.json
+    python bench/train_throughput.py --config gpu --updates-only --no-parts --trunks densenet121   # one compile
 """
 from __future__ import annotations
 
@@ -48,8 +53,6 @@ from vags_jax import config as C  # noqa: E402
 from vags_jax.nets import (coarse_to_heightmap, initial_variables, make_qnet, pad_inputs, padded_size,  # noqa: E402
                            rotated_inputs, rotation_angles, trunk_geometry)
 from vags_jax.rl import dqn, exploration, replay  # noqa: E402
-from vags_jax.stages import checkpoint, pipeline  # noqa: E402
-from vags_jax.stages.stage1 import Stage1  # noqa: E402
 
 
 def timed(fn, *args, reps: int = 5) -> float:
@@ -76,14 +79,16 @@ def random_batch(cfg, key, b: int):
     return batch, w
 
 
-def update_mfu(cfg, peak: float, n_updates: int, reps: int = 3) -> dict:
+def update_mfu(cfg, peak: float, n_updates: int, reps: int = 3, parts: bool = True) -> dict:
     """One DQN update of GDNet (this config's trunk): model FLOPs, updates/s, MFU against ``peak``
     and where the update's time goes (each part jitted alone on the same arrays).
 
     Model FLOPs (``flop_count``): the target network's pass over every rotation of the next
     states (twice with ``double_q``; none with gamma 0) plus 3 x the online network's forward
     pass at the executed rotations (train mode).  XLA's own count is kept beside it
-    (``xla_flops``): on an H100 it counted 1-3 % of the model FLOPs (bench/RESULTS.md)."""
+    (``xla_flops``): on an H100 it counted 1-3 % of the model FLOPs (bench/RESULTS.md).
+    ``parts=False`` skips the parts and XLA's count, each a compile of its own (DenseNet-121's
+    took minutes on a bare H200); ``xla_flops`` is then None and ``parts`` empty."""
     net = make_qnet(cfg.net, "gdnet")
     H = cfg.workspace.heightmap_px
     apply = lambda v, c, h, train, mutable=False, rotations=None: net.apply(  # noqa: E731
@@ -95,7 +100,9 @@ def update_mfu(cfg, peak: float, n_updates: int, reps: int = 3) -> dict:
     one = jax.jit(lambda ts: update(ts, batch, w)[0])
     many = jax.jit(lambda ts: jax.lax.scan(lambda s, _: (update(s, batch, w)[0], None), ts, None,
                                            length=n_updates)[0])
+    t0 = time.perf_counter()
     dt = timed(many, learner, reps=reps) / n_updates
+    print(f"  {cfg.net.trunk}: {n_updates} updates compiled and timed in {time.perf_counter() - t0:.1f} s", flush=True)
 
     rot = batch.action[:, :1]
     if cfg.dqn.symmetric_grasp_label:
@@ -107,6 +114,13 @@ def update_mfu(cfg, peak: float, n_updates: int, reps: int = 3) -> dict:
     passes = 0 if cfg.dqn.gamma == 0 else (2 if cfg.dqn.double_q else 1)
     f_target, f_online = forward_flops(target, variables), forward_flops(online, variables)
     flops = passes * f_target + 3 * f_online
+    result = {"trunk": cfg.net.trunk, "dtype": cfg.net.dtype, "batch_size": cfg.dqn.batch_size,
+              "heightmap_px": H, "rotations": cfg.net.n_rotations, "update_flops": flops, "target_pass_flops": f_target,
+              "online_forward_flops": f_online, "target_passes": passes, "xla_flops": None, "update_s": dt,
+              "updates_per_s": 1 / dt, "achieved_flops_per_s": flops / dt, "mfu": flops / dt / peak, "parts": {}}
+    if not parts:
+        return result
+    t0 = time.perf_counter()
 
     # The target pass in its three parts: rotated copies of the inputs, trunks + head, Q maps
     # back in heightmap coordinates (vags_jax.nets.qnet, steps 1-5).
@@ -121,21 +135,19 @@ def update_mfu(cfg, peak: float, n_updates: int, reps: int = 3) -> dict:
     back = jax.jit(lambda c: coarse_to_heightmap(c, theta.reshape(-1), p, H, H, geo))
     grad = jax.jit(jax.grad(lambda prm: jnp.sum(dqn.q_at_action(
         online({"params": prm, "batch_stats": variables["batch_stats"]}), batch.action.at[:, 0].set(0)))))
-    parts = {
+    result["parts"] = {
         "target_pass_s": timed(jax.jit(target), variables, reps=reps),
         "target_rotate_inputs_s": timed(rotate_in, batch.next_color, next_h, reps=reps),
         "target_trunks_and_head_s": timed(trunks, variables, x, reps=reps),
         "target_to_heightmap_s": timed(back, coarse, reps=reps),
         "online_forward_backward_s": timed(grad, variables["params"], reps=reps),
     }
-    return {"trunk": cfg.net.trunk, "dtype": cfg.net.dtype, "batch_size": cfg.dqn.batch_size,
-            "heightmap_px": H, "rotations": R, "update_flops": flops, "target_pass_flops": f_target,
-            "online_forward_flops": f_online, "target_passes": passes, "xla_flops": flops_of(one, learner),
-            "update_s": dt, "updates_per_s": 1 / dt, "achieved_flops_per_s": flops / dt, "mfu": flops / dt / peak,
-            "parts": parts}
+    result["xla_flops"] = flops_of(one, learner)
+    print(f"  {cfg.net.trunk}: parts and XLA's count compiled and timed in {time.perf_counter() - t0:.1f} s", flush=True)
+    return result
 
 
-def phases(st: Stage1, state, reps: int) -> dict:
+def phases(st, state, reps: int) -> dict:
     """Seconds of each phase of one stage-1 iteration, each jitted alone (module docstring)."""
     cfg, env = st.cfg, st.env
     s1 = cfg.stage1
@@ -174,37 +186,26 @@ def phases(st: Stage1, state, reps: int) -> dict:
     }
 
 
-def host_work(st: Stage1, state, metrics, chunk: int) -> float:
+def host_work(st, state, metrics, chunk: int) -> float:
     """A chunk's host work (metrics to the host, one checkpoint) spread over its iterations."""
     with tempfile.TemporaryDirectory() as d:
         t = time.perf_counter()
         jax.device_get(metrics)
+        from vags_jax.stages import checkpoint  # the environment's packages (MuJoCo) load only here
+
         checkpoint.save(d, 1, state)
         return (time.perf_counter() - t) / chunk
 
 
-def main(argv=None) -> int:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--config", default="gpu")
-    p.add_argument("--set", nargs="*", default=[], metavar="SECTION.FIELD=VALUE")
-    p.add_argument("--iterations", type=int, default=8, help="iterations per timed chunk (default 8)")
-    p.add_argument("--reps", type=int, default=5, help="calls per phase timing (default 5)")
-    p.add_argument("--trunks", default="small,densenet121", help="trunks for the update MFU (comma-separated)")
-    p.add_argument("--matmul", type=int, default=None, help="side of the peak matmul (default 8192 GPU, 1024 CPU)")
-    p.add_argument("--cache-dir", default=None, help="compile cache (as train.py's); 'off' to measure cold")
-    p.add_argument("--out", default=None, help="JSON file for every figure")
-    args = p.parse_args(argv)
-    compile_cache.enable(args.cache_dir)
-    cfg = C.replace(C.preset(args.config), **C.parse_overrides(args.set))
-    s1 = cfg.stage1
-    on_gpu = jax.devices()[0].platform == "gpu"
-    print(f"device: {jax.devices()[0].device_kind}; config {args.config} {' '.join(args.set)}; "
-          f"{s1.n_worlds} worlds, {s1.updates_per_iteration} updates of batch {cfg.dqn.batch_size} per iteration",
-          flush=True)
+def whole_iterations(cfg, iterations: int, reps: int) -> dict:
+    """Parts 1 and 2 of the docstring: stage 1's attempts/s over whole iterations and its phases."""
+    from vags_jax.stages import pipeline  # the environment's packages (MuJoCo) load only here
+    from vags_jax.stages.stage1 import Stage1
 
+    s1 = cfg.stage1
     st = Stage1(cfg)
     state = st.init(jax.random.PRNGKey(cfg.seed))
-    n = max(args.iterations, -(-s1.learning_starts // s1.n_worlds) + 1)  # the first chunk fills replay
+    n = max(iterations, -(-s1.learning_starts // s1.n_worlds) + 1)  # the first chunk fills replay
     t = time.perf_counter()
     state, _ = st.run(state, n)
     jax.block_until_ready(state)
@@ -220,32 +221,60 @@ def main(argv=None) -> int:
     print(f"stage 1: {attempts / wall:,.0f} grasp attempts/s ({attempts} attempts, {updates:.0f} updates in "
           f"{wall:.2f} s; {it_s * 1e3:.1f} ms per iteration; first chunk with compiling {first_s:.1f} s)", flush=True)
 
-    ph = phases(st, state, args.reps)
+    ph = phases(st, state, reps)
     ph["rest_of_iteration_s"] = it_s - sum(ph.values())
     ph["host_work_per_iteration_s"] = host_work(st, state, metrics, pipeline.default_chunk(s1.iterations))
     for k, v in ph.items():
         print(f"  {k[:-2].replace('_', ' '):28s} {v * 1e3:8.2f} ms  {100 * v / it_s:5.1f} %", flush=True)
 
+    return {"iterations_timed": n, "wall_s": wall, "attempts": attempts, "attempts_per_s": attempts / wall,
+            "iteration_s": it_s, "first_chunk_s": first_s, "phases": ph}
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--config", default="gpu")
+    p.add_argument("--set", nargs="*", default=[], metavar="SECTION.FIELD=VALUE")
+    p.add_argument("--iterations", type=int, default=8, help="iterations per timed chunk (default 8)")
+    p.add_argument("--reps", type=int, default=5, help="calls per phase timing (default 5)")
+    p.add_argument("--trunks", default="small,densenet121", help="trunks for the update MFU (comma-separated)")
+    p.add_argument("--matmul", type=int, default=None, help="side of the peak matmul (default 8192 GPU, 1024 CPU)")
+    p.add_argument("--cache-dir", default=None, help="compile cache (as train.py's); 'off' to measure cold")
+    p.add_argument("--out", default=None, help="JSON file for every figure")
+    p.add_argument("--updates-only", action="store_true",
+                   help="only the matmul peak and the update MFU of each trunk (no environment, no MuJoCo)")
+    p.add_argument("--no-parts", action="store_true",
+                   help="the update MFU without its parts and XLA's FLOP count (one compile per trunk)")
+    args = p.parse_args(argv)
+    compile_cache.enable(args.cache_dir)
+    cfg = C.replace(C.preset(args.config), **C.parse_overrides(args.set))
+    s1 = cfg.stage1
+    on_gpu = jax.devices()[0].platform == "gpu"
+    print(f"device: {jax.devices()[0].device_kind}; config {args.config} {' '.join(args.set)}; "
+          f"{s1.n_worlds} worlds, {s1.updates_per_iteration} updates of batch {cfg.dqn.batch_size} per iteration",
+          flush=True)
+
+    result = {"device": jax.devices()[0].device_kind, "config": args.config, "overrides": args.set,
+              "n_worlds": s1.n_worlds, "updates_per_iteration": s1.updates_per_iteration,
+              "batch_size": cfg.dqn.batch_size, "updates_only": args.updates_only}
+    if not args.updates_only:
+        result.update(whole_iterations(cfg, args.iterations, args.reps))
     peak = matmul_peak(args.matmul or (8192 if on_gpu else 1024))
     print(f"bf16 matmul peak measured: {peak / 1e12:.1f} TFLOP/s", flush=True)
     mfu = []
     for trunk in [t for t in args.trunks.split(",") if t]:
         tcfg = C.replace(cfg, **{"net.trunk": trunk, "net.dtype": "bfloat16"})
-        r = update_mfu(tcfg, peak, s1.updates_per_iteration)
+        r = update_mfu(tcfg, peak, s1.updates_per_iteration, parts=not args.no_parts)
         mfu.append(r)
-        print(f"update MFU, {trunk}: {r['update_flops'] / 1e9:.1f} GFLOP per update (model; XLA counts "
-              f"{r['xla_flops'] / 1e9:.1f}), {r['updates_per_s']:.1f} updates/s, "
+        xla = "XLA's count skipped" if r["xla_flops"] is None else f"XLA counts {r['xla_flops'] / 1e9:.1f}"
+        print(f"update MFU, {trunk}: {r['update_flops'] / 1e9:.1f} GFLOP per update (model; {xla}), "
+              f"{r['updates_per_s']:.1f} updates/s, "
               f"{r['achieved_flops_per_s'] / 1e12:.2f} TFLOP/s = {100 * r['mfu']:.1f} % of the peak", flush=True)
         for k, v in r["parts"].items():
             print(f"    {k[:-2].replace('_', ' '):38s} {v * 1e3:8.2f} ms  {100 * v / r['update_s']:5.1f} % of an update",
                   flush=True)
 
-    result = {"device": jax.devices()[0].device_kind, "config": args.config, "overrides": args.set,
-              "n_worlds": s1.n_worlds, "updates_per_iteration": s1.updates_per_iteration,
-              "batch_size": cfg.dqn.batch_size, "iterations_timed": n, "wall_s": wall,
-              "attempts": attempts, "attempts_per_s": attempts / wall, "iteration_s": it_s,
-              "first_chunk_s": first_s, "phases": ph, "matmul_peak_flops_per_s": peak, "update_mfu": mfu,
-              "date": time.strftime("%Y-%m-%d")}
+    result.update(matmul_peak_flops_per_s=peak, update_mfu=mfu, date=time.strftime("%Y-%m-%d"))
     if args.out:
         os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
         with open(args.out, "w") as f:
