@@ -88,7 +88,8 @@ def update_mfu(cfg, peak: float, n_updates: int, reps: int = 3, parts: bool = Tr
     pass at the executed rotations (train mode).  XLA's own count is kept beside it
     (``xla_flops``): on an H100 it counted 1-3 % of the model FLOPs (bench/RESULTS.md).
     ``parts=False`` skips the parts and XLA's count, each a compile of its own (DenseNet-121's
-    took minutes on a bare H200); ``xla_flops`` is then None and ``parts`` empty."""
+    measurement with them did not finish in 400 s on a bare H200); ``xla_flops`` is then None
+    and ``parts`` empty."""
     net = make_qnet(cfg.net, "gdnet")
     H = cfg.workspace.heightmap_px
     apply = lambda v, c, h, train, mutable=False, rotations=None: net.apply(  # noqa: E731
