@@ -306,6 +306,28 @@ def test_densenet121_param_count_and_stride(densenet_out):
         x.size for p, x in jax.tree_util.tree_leaves_with_path(variables["params"]) if "scale" in str(p[-1]))
 
 
+def test_densenet121_eval_mode_folds_the_batchnorms_after_convolutions(densenet_out, monkeypatch):
+    """In eval mode ``norm0`` and each dense layer's ``norm2`` are folded into the conv before
+    them (``densenet.conv_bn_relu``); the result is the modules' unfolded arithmetic."""
+    from vags_jax.nets import densenet
+
+    _, variables, x, apply = densenet_out
+    def nudge(tree, shift):  # every 1-D leaf (BatchNorm scales, biases, statistics) moved by shift(name, u)
+        leaves, treedef = jax.tree_util.tree_flatten_with_path(tree)
+        keys = jax.random.split(jax.random.PRNGKey(9), len(leaves))
+        return jax.tree_util.tree_unflatten(treedef, [
+            a + shift(p[-1].key, jax.random.uniform(k, a.shape)) if a.ndim == 1 else a
+            for (p, a), k in zip(leaves, keys)])
+
+    v = {"params": nudge(variables["params"], lambda name, u: 0.6 * u - 0.3),
+         "batch_stats": nudge(variables["batch_stats"], lambda name, u: 0.1 + 0.4 * u if name == "var" else u - 0.5)}
+    folded = np.asarray(apply(v, x))
+    monkeypatch.setattr(densenet, "conv_bn_relu", lambda x, c, bn, train, initializing: nn.relu(bn(c(x))))
+    unfolded = np.asarray(jax.jit(DenseNet121().apply)(v, x))
+    assert np.abs(unfolded).max() > 0.1
+    np.testing.assert_allclose(folded, unfolded, rtol=1e-4, atol=1e-5 * np.abs(unfolded).max())
+
+
 # ----------------------------------------------------------------------------- pretrained loading
 
 

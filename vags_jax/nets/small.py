@@ -26,7 +26,7 @@ import flax.linen as nn
 import jax
 import jax.numpy as jnp
 
-from .densenet import BN_EPSILON, HE_NORMAL, batch_norm, conv
+from .densenet import HE_NORMAL, batch_norm, conv, folded_batch_norm
 
 STRIDE = 8
 OFFSET = 3.5
@@ -73,14 +73,6 @@ class StridedConv(nn.Module):
         k = kernel.reshape(2, 2, 2, 2, c, self.features).transpose(0, 2, 1, 3, 4, 5).reshape(2, 2, 4 * c, self.features)
         return jax.lax.conv_general_dilated(blocks, k.astype(self.dtype), (1, 1), "VALID",
                                             dimension_numbers=("NHWC", "HWIO", "NHWC"))
-
-
-def folded_batch_norm(variables: dict) -> tuple[jax.Array, jax.Array]:
-    """An eval-mode BatchNorm's variables -> ``(mul, shift)``, each ``(C,)`` float32, with
-    ``bn(y) = y * mul + shift``."""
-    p, s = variables["params"], variables["batch_stats"]
-    mul = p["scale"] * jax.lax.rsqrt(s["var"] + BN_EPSILON)
-    return mul, p["bias"] - s["mean"] * mul
 
 
 class SmallTrunk(nn.Module):

@@ -1,0 +1,164 @@
+#!/usr/bin/env python3
+"""How fast one DenseNet-121 trunk runs in eval mode (the pass the target network and the actor
+run over every rotation: most of a `paper`-preset update, bench/RESULTS.md), and whether another
+formulation of the same arithmetic runs faster.
+
+    python bench/densenet_speed.py --out runs/densenet_speed.json        # 1,024 images of 320 x 320
+    python bench/densenet_speed.py --px 64 --batches 4 --reps 1           # CPU smoke run
+
+Every formulation computes ``DenseNet121.apply(v, x, train=False)`` on the same ``(N, P, P, 3)``
+inputs from the same variables, and is checked against the module's output:
+
+* ``module``: the code GDNet runs (``vags_jax.nets.densenet.DenseNet121``);
+* ``folded``: plain ``lax`` convolutions, with the two BatchNorms that follow a convolution
+  (``norm0`` after the stem, ``norm2`` after each dense layer's 1x1 convolution) folded into its
+  kernel and a bias, so those layers are conv + bias + ReLU; the BatchNorms that come before a
+  convolution (``norm1``, the transitions' ``norm``) stay a scale, shift and ReLU of its input;
+* ``folded_buffer``: as ``folded``, with each dense block's features written into one buffer of
+  the block's final width (a static ``dynamic_update_slice`` a layer) instead of concatenated
+  anew after every layer.
+
+Model FLOPs as ``flop_count`` counts them; MFU against a bf16 matmul measured here.  Needs only
+jax and flax (no physics).  Timings mean something on a GPU only.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+
+from flop_count import forward_flops  # noqa: E402
+from timing import matmul_peak, timed  # noqa: E402
+
+from vags_jax.nets import densenet  # noqa: E402
+from vags_jax.nets.small import folded_batch_norm  # noqa: E402
+
+
+def _conv(x, kernel, stride: int = 1, pad: int = 0):
+    return jax.lax.conv_general_dilated(x, kernel.astype(x.dtype), (stride, stride), ((pad, pad), (pad, pad)),
+                                        dimension_numbers=("NHWC", "HWIO", "NHWC"))
+
+
+def _bn(v, *path):
+    """``(mul, shift)`` of the eval-mode BatchNorm at ``path`` (``folded_batch_norm``)."""
+    p, s = v["params"], v["batch_stats"]
+    for k in path:
+        p, s = p[k], s[k]
+    return folded_batch_norm({"params": p, "batch_stats": s})
+
+
+def _affine_relu(x, mul, shift):
+    return jax.nn.relu(x * mul.astype(x.dtype) + shift.astype(x.dtype))
+
+
+def _conv_bn_relu(x, kernel, mul, shift, stride: int = 1, pad: int = 0):
+    """conv then an eval-mode BatchNorm then ReLU, the BatchNorm folded: conv + bias + ReLU."""
+    return jax.nn.relu(_conv(x, kernel * mul, stride, pad) + shift.astype(x.dtype))
+
+
+def _dense_layer(v, block: str, i: int, x):
+    name = f"denselayer{i + 1}"
+    p = v["params"][block][name]
+    y = _affine_relu(x, *_bn(v, block, name, "norm1"))
+    y = _conv_bn_relu(y, p["conv1"]["kernel"], *_bn(v, block, name, "norm2"))
+    return _conv(y, p["conv2"]["kernel"], pad=1)
+
+
+def folded_forward(v, x, dtype, buffer: bool = False):
+    """DenseNet-121 eval mode, BatchNorms after convolutions folded (module docstring)."""
+    x = x.astype(dtype)
+    x = _conv_bn_relu(x, v["params"]["conv0"]["kernel"], *_bn(v, "norm0"), stride=2, pad=3)
+    x = jax.lax.reduce_window(x, jnp.array(-jnp.inf, x.dtype), jax.lax.max, (1, 3, 3, 1), (1, 2, 2, 1),
+                              ((0, 0), (1, 1), (1, 1), (0, 0)))
+    channels = densenet.INIT_FEATURES
+    for b, n_layers in enumerate(densenet.BLOCK_CONFIG):
+        block = f"denseblock{b + 1}"
+        width = channels + n_layers * densenet.GROWTH
+        if buffer:
+            buf = jnp.zeros(x.shape[:3] + (width,), x.dtype)
+            buf = jax.lax.dynamic_update_slice(buf, x, (0, 0, 0, 0))
+            for i in range(n_layers):
+                c = channels + i * densenet.GROWTH
+                y = _dense_layer(v, block, i, buf[..., :c])
+                buf = jax.lax.dynamic_update_slice(buf, y, (0, 0, 0, c))
+            x = buf
+        else:
+            for i in range(n_layers):
+                x = jnp.concatenate([x, _dense_layer(v, block, i, x)], axis=-1)
+        channels = width
+        if b != len(densenet.BLOCK_CONFIG) - 1:
+            t = f"transition{b + 1}"
+            y = _conv(_affine_relu(x, *_bn(v, t, "norm")), v["params"][t]["conv"]["kernel"])
+            n, h, w, c = y.shape
+            x = y.reshape(n, h // 2, 2, w // 2, 2, c).mean(axis=(2, 4), dtype=jnp.float32).astype(y.dtype)
+            channels //= 2
+    mul, shift = _bn(v, "norm5")
+    return x * mul.astype(x.dtype) + shift.astype(x.dtype)
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--px", type=int, default=320, help="input side (default 320: the paper preset's padded map)")
+    p.add_argument("--batches", default="1024", help="images per pass (comma-separated)")
+    p.add_argument("--dtype", default="bfloat16")
+    p.add_argument("--reps", type=int, default=10)
+    p.add_argument("--forms", default="module,folded,folded_buffer", help="module first: the others are checked against it")
+    p.add_argument("--out", default=None)
+    args = p.parse_args(argv)
+    if args.px % 32:
+        raise SystemExit(f"--px must be a multiple of 32 (DenseNet-121's stride), got {args.px}")
+    dtype = jnp.dtype(args.dtype)
+    net = densenet.DenseNet121(dtype=dtype)
+    v = net.init(jax.random.PRNGKey(0), jnp.zeros((1, args.px, args.px, 3)), False)
+    # Running statistics away from (0, 1), so that the check covers BatchNorm's arithmetic.
+    v = {**v, "batch_stats": jax.tree.map(lambda s: s + 0.1 * jax.random.uniform(jax.random.PRNGKey(1), s.shape),
+                                          v["batch_stats"])}
+    on_gpu = jax.devices()[0].platform == "gpu"
+    peak = matmul_peak(8192 if on_gpu else 512)
+    print(f"device: {jax.devices()[0].device_kind}; DenseNet-121 eval, {args.dtype}, inputs {args.px} x {args.px}; "
+          f"bf16 matmul peak {peak / 1e12:.1f} TFLOP/s", flush=True)
+    all_forms = {"module": lambda v, x: net.apply(v, x, False),
+                 "folded": lambda v, x: folded_forward(v, x, dtype),
+                 "folded_buffer": lambda v, x: folded_forward(v, x, dtype, buffer=True)}
+    forms = {k: all_forms[k] for k in args.forms.split(",") if k}
+    rows = []
+    for n in [int(b) for b in args.batches.split(",") if b]:
+        x = jax.random.normal(jax.random.PRNGKey(n), (n, args.px, args.px, 3))
+        ref = None if "module" in forms else np.asarray(jax.jit(all_forms["module"])(v, x), np.float32)
+        for name, fn in forms.items():
+            t0 = time.perf_counter()
+            jf = jax.jit(fn)
+            jf.lower(v, x).compile()
+            compile_s = time.perf_counter() - t0
+            dt, out = timed(jf, v, x, repeats=args.reps)
+            out = np.asarray(out, np.float32)
+            ref = out if ref is None else ref
+            err = float(np.abs(out - ref).max() / max(np.abs(ref).max(), 1e-9))
+            flops = forward_flops(fn, v, x)
+            row = {"form": name, "images": n, "s": dt, "ms_per_1024_images": 1e3 * dt * 1024 / n, "flops": flops,
+                   "flops_per_s": flops / dt, "mfu": flops / dt / peak, "compile_s": compile_s,
+                   "max_rel_diff_to_module": err}
+            rows.append(row)
+            print(f"  {name:14s} {n:5d} images: {dt * 1e3:8.2f} ms, {row['ms_per_1024_images']:7.2f} ms per 1024, "
+                  f"{flops / dt / 1e12:6.1f} TFLOP/s = {100 * row['mfu']:4.1f} % MFU; compiled in {compile_s:.1f} s; "
+                  f"max |diff| / max |out| to module {err:.1e}", flush=True)
+    if args.out:
+        os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
+        with open(args.out, "w") as f:
+            json.dump({"device": jax.devices()[0].device_kind, "dtype": args.dtype, "px": args.px,
+                       "matmul_peak_flops_per_s": peak, "rows": rows, "date": time.strftime("%Y-%m-%d")}, f, indent=2)
+        print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
