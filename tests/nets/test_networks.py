@@ -308,8 +308,19 @@ def test_densenet121_param_count_and_stride(densenet_out):
 
 def test_densenet121_eval_mode_folds_the_batchnorms_after_convolutions(densenet_out, monkeypatch):
     """In eval mode ``norm0`` and each dense layer's ``norm2`` are folded into the conv before
-    them (``densenet.conv_bn_relu``); the result is the modules' unfolded arithmetic."""
+    them (``densenet.conv_bn_relu``); the result is the modules' unfolded arithmetic.  The stem's
+    space-to-depth form (``StemConv``) is the 7x7 / 2 conv with padding 3, even and odd sizes."""
     from vags_jax.nets import densenet
+
+    xs = jax.random.normal(jax.random.PRNGKey(10), (2, 12, 10, 3))
+    stem = densenet.StemConv(5)
+    sv = stem.init(jax.random.PRNGKey(11), xs)
+    assert sv["params"]["kernel"].shape == (7, 7, 3, 5)
+    for xi in (xs, xs[:, :11, :9]):
+        want = densenet.conv(5, 7, "c", jnp.float32, stride=2, pad=3).apply(sv, xi)
+        got = stem.apply(sv, xi)
+        assert got.shape == want.shape
+        np.testing.assert_allclose(np.asarray(got), np.asarray(want), rtol=1e-5, atol=1e-5)
 
     _, variables, x, apply = densenet_out
     def nudge(tree, shift):  # every 1-D leaf (BatchNorm scales, biases, statistics) moved by shift(name, u)
@@ -323,6 +334,8 @@ def test_densenet121_eval_mode_folds_the_batchnorms_after_convolutions(densenet_
          "batch_stats": nudge(variables["batch_stats"], lambda name, u: 0.1 + 0.4 * u if name == "var" else u - 0.5)}
     folded = np.asarray(apply(v, x))
     monkeypatch.setattr(densenet, "conv_bn_relu", lambda x, c, bn, train, initializing: nn.relu(bn(c(x))))
+    monkeypatch.setattr(densenet, "StemConv", lambda features, dtype, name: densenet.conv(
+        features, 7, name, dtype, stride=2, pad=3))
     unfolded = np.asarray(jax.jit(DenseNet121().apply)(v, x))
     assert np.abs(unfolded).max() > 0.1
     np.testing.assert_allclose(folded, unfolded, rtol=1e-4, atol=1e-5 * np.abs(unfolded).max())

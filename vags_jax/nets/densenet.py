@@ -19,7 +19,8 @@ Submodule names mirror torchvision's state-dict keys (``conv0``, ``denseblock1/d
 ``transition1/conv``, ``norm5``...) so ``pretrained.py`` can map them one to one.  BatchNorm:
 momentum 0.9 (torch 0.1), epsilon 1e-5; ``train=True`` uses batch statistics and updates the
 ``batch_stats`` collection.  In eval mode the BatchNorms that follow a convolution (``norm0``, each
-``norm2``) are folded into its kernel and a bias (``conv_bn_relu``); parameters are the same.  Parameters are float32; ``dtype`` is the compute dtype.
+``norm2``) are folded into its kernel and a bias (``conv_bn_relu``), and the stem runs by
+space-to-depth (``StemConv``); parameters are the same.  Parameters are float32; ``dtype`` is the compute dtype.
 """
 from __future__ import annotations
 
@@ -68,17 +69,51 @@ def folded_batch_norm(variables: dict) -> tuple[jax.Array, jax.Array]:
     return mul, p["bias"] - s["mean"] * mul
 
 
-def conv_bn_relu(x: jax.Array, c: nn.Conv, bn: nn.BatchNorm, train: bool, initializing: bool) -> jax.Array:
+def conv_bn_relu(x: jax.Array, c: "nn.Conv | StemConv", bn: nn.BatchNorm, train: bool, initializing: bool) -> jax.Array:
     """``relu(bn(c(x)))``.  In eval mode the BatchNorm is folded into the conv's kernel and a bias
     (conv + bias + ReLU: one pass less over the activations, 1.10 x for a DenseNet-121 pass on an
     H200, bench/RESULTS.md); train mode and init call the modules as they are."""
     if train or initializing:
         return nn.relu(bn(c(x)))
     mul, shift = folded_batch_norm(bn.variables)
-    kernel = (c.variables["params"]["kernel"] * mul).astype(c.dtype)
-    y = jax.lax.conv_general_dilated(x.astype(c.dtype), kernel, c.strides, c.padding,
-                                     dimension_numbers=("NHWC", "HWIO", "NHWC"))
+    if isinstance(c, StemConv):
+        y = c(x, mul)
+    else:
+        kernel = (c.variables["params"]["kernel"] * mul).astype(c.dtype)
+        y = jax.lax.conv_general_dilated(x.astype(c.dtype), kernel, c.strides, c.padding,
+                                         dimension_numbers=("NHWC", "HWIO", "NHWC"))
     return nn.relu(y + shift.astype(c.dtype))
+
+
+class StemConv(nn.Module):
+    """``conv(features, 7, stride 2, pad 3)``: its parameter (``kernel`` ``(7, 7, C, features)``) and
+    its result, computed for even H, W as a 4x4 / 1 conv over the 2 x 2 space-to-depth of the
+    padded input (the kernel padded to 8 x 8 with zeros; tap ``(2a + r, 2b + s)`` reads block
+    ``(a, b)`` at offset ``(r, s)``): over 3 input channels the plain conv is memory-bound, and
+    this form took the stem from 20.3 to 10.3 ms per 1,024 inputs of 320 x 320 on an H200
+    (bench/RESULTS.md).  ``scale`` ``(features,)`` multiplies the kernel's output channels (an
+    eval-mode BatchNorm folded in).  ``(N, H, W, C) -> (N, ceil(H / 2), ceil(W / 2), features)``."""
+
+    features: int
+    dtype: jnp.dtype = jnp.float32
+
+    @nn.compact
+    def __call__(self, x: jax.Array, scale: Optional[jax.Array] = None) -> jax.Array:
+        n, h, w, c = x.shape
+        kernel = self.param("kernel", HE_NORMAL, (7, 7, c, self.features), jnp.float32)
+        if scale is not None:
+            kernel = kernel * scale
+        x = x.astype(self.dtype)
+        if h % 2 or w % 2:
+            return jax.lax.conv_general_dilated(x, kernel.astype(self.dtype), (2, 2), ((3, 3), (3, 3)),
+                                                dimension_numbers=("NHWC", "HWIO", "NHWC"))
+        xp = jnp.pad(x, ((0, 0), (3, 3), (3, 3), (0, 0)))
+        m_h, m_w = (h + 6) // 2, (w + 6) // 2
+        blocks = xp.reshape(n, m_h, 2, m_w, 2, c).transpose(0, 1, 3, 2, 4, 5).reshape(n, m_h, m_w, 4 * c)
+        k8 = jnp.pad(kernel, ((0, 1), (0, 1), (0, 0), (0, 0)))
+        k = k8.reshape(4, 2, 4, 2, c, self.features).transpose(0, 2, 1, 3, 4, 5).reshape(4, 4, 4 * c, self.features)
+        return jax.lax.conv_general_dilated(blocks, k.astype(self.dtype), (1, 1), "VALID",
+                                            dimension_numbers=("NHWC", "HWIO", "NHWC"))
 
 
 class DenseLayer(nn.Module):
@@ -141,7 +176,7 @@ class DenseNet121(nn.Module):
     @nn.compact
     def __call__(self, x: jax.Array, train: bool = False) -> jax.Array:
         x = x.astype(self.dtype)
-        x = conv_bn_relu(x, conv(self.init_features, 7, "conv0", self.dtype, stride=2, pad=3),
+        x = conv_bn_relu(x, StemConv(self.init_features, self.dtype, name="conv0"),
                          batch_norm("norm0", train, self.dtype, self.axis_name), train, self.is_initializing())
         x = nn.max_pool(x, (3, 3), strides=(2, 2), padding=((1, 1), (1, 1)))
         channels = self.init_features
