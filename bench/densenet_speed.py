@@ -73,17 +73,9 @@ def _conv_bn_relu(x, kernel, mul, shift, stride: int = 1, pad: int = 0):
 
 
 def _stem_s2d(x, kernel, mul, shift):
-    """The stem's 7x7 / 2 conv (pad 3) as a 4x4 / 1 conv over the 2 x 2 space-to-depth of its
-    padded input (the kernel padded to 8 x 8 with zeros), BatchNorm folded, ReLU."""
-    n, h, w, c = x.shape
-    xp = jnp.pad(x, ((0, 0), (3, 3), (3, 3), (0, 0)))
-    m_h, m_w = (h + 6) // 2, (w + 6) // 2
-    blocks = xp.reshape(n, m_h, 2, m_w, 2, c).transpose(0, 1, 3, 2, 4, 5).reshape(n, m_h, m_w, 4 * c)
-    k8 = jnp.pad(kernel * mul, ((0, 1), (0, 1), (0, 0), (0, 0)))
-    f = k8.shape[-1]
-    k = k8.reshape(4, 2, 4, 2, c, f).transpose(0, 2, 1, 3, 4, 5).reshape(4, 4, 4 * c, f)
-    y = jax.lax.conv_general_dilated(blocks, k.astype(x.dtype), (1, 1), "VALID",
-                                     dimension_numbers=("NHWC", "HWIO", "NHWC"))
+    """The stem's 7x7 / 2 conv (pad 3) by space-to-depth (``densenet.stride2_conv_by_space_to_depth``),
+    BatchNorm folded, ReLU."""
+    y = densenet.stride2_conv_by_space_to_depth(x, (kernel * mul).astype(x.dtype), 3)
     return jax.nn.relu(y + shift.astype(x.dtype))
 
 

@@ -85,14 +85,31 @@ def conv_bn_relu(x: jax.Array, c: "nn.Conv | StemConv", bn: nn.BatchNorm, train:
     return nn.relu(y + shift.astype(c.dtype))
 
 
+def stride2_conv_by_space_to_depth(x: jax.Array, kernel: jax.Array, pad: int) -> jax.Array:
+    """A stride-2 conv with symmetric padding ``pad`` computed as a stride-1 conv over the 2 x 2
+    space-to-depth of the padded input, the kernel zero-padded to an even size: kernel tap
+    ``(2a + r, 2b + s)`` reads block ``(a, b)`` at offset ``(r, s)``.  The same sums in fewer, wider
+    taps, for a first conv over few channels, which is memory-bound.  ``x`` ``(N, H, W, C)`` with
+    even H, W; ``kernel`` ``(k, k, C, F)`` in x's dtype -> ``(N, (H + 2 pad - k) // 2 + 1, ., F)``."""
+    n, h, w, c = x.shape
+    k, f = kernel.shape[0], kernel.shape[-1]
+    half = (k + 1) // 2
+    xp = jnp.pad(x, ((0, 0), (pad, pad), (pad, pad), (0, 0)))
+    m_h, m_w = h // 2 + pad, w // 2 + pad
+    blocks = xp.reshape(n, m_h, 2, m_w, 2, c).transpose(0, 1, 3, 2, 4, 5).reshape(n, m_h, m_w, 4 * c)
+    if k % 2:
+        kernel = jnp.pad(kernel, ((0, 1), (0, 1), (0, 0), (0, 0)))
+    kernel = kernel.reshape(half, 2, half, 2, c, f).transpose(0, 2, 1, 3, 4, 5).reshape(half, half, 4 * c, f)
+    return jax.lax.conv_general_dilated(blocks, kernel, (1, 1), "VALID", dimension_numbers=("NHWC", "HWIO", "NHWC"))
+
+
 class StemConv(nn.Module):
     """``conv(features, 7, stride 2, pad 3)``: its parameter (``kernel`` ``(7, 7, C, features)``) and
-    its result, computed for even H, W as a 4x4 / 1 conv over the 2 x 2 space-to-depth of the
-    padded input (the kernel padded to 8 x 8 with zeros; tap ``(2a + r, 2b + s)`` reads block
-    ``(a, b)`` at offset ``(r, s)``): over 3 input channels the plain conv is memory-bound, and
-    this form took the stem from 20.3 to 10.3 ms per 1,024 inputs of 320 x 320 on an H200
-    (bench/RESULTS.md).  ``scale`` ``(features,)`` multiplies the kernel's output channels (an
-    eval-mode BatchNorm folded in).  ``(N, H, W, C) -> (N, ceil(H / 2), ceil(W / 2), features)``."""
+    its result, computed for even H, W by ``stride2_conv_by_space_to_depth``: over 3 input
+    channels the plain conv is memory-bound, and this form took the stem from 20.3 to 10.3 ms per
+    1,024 inputs of 320 x 320 on an H200 (bench/RESULTS.md).  ``scale`` ``(features,)``
+    multiplies the kernel's output channels (an eval-mode BatchNorm folded in).
+    ``(N, H, W, C) -> (N, ceil(H / 2), ceil(W / 2), features)``."""
 
     features: int
     dtype: jnp.dtype = jnp.float32
@@ -103,17 +120,11 @@ class StemConv(nn.Module):
         kernel = self.param("kernel", HE_NORMAL, (7, 7, c, self.features), jnp.float32)
         if scale is not None:
             kernel = kernel * scale
-        x = x.astype(self.dtype)
+        x, kernel = x.astype(self.dtype), kernel.astype(self.dtype)
         if h % 2 or w % 2:
-            return jax.lax.conv_general_dilated(x, kernel.astype(self.dtype), (2, 2), ((3, 3), (3, 3)),
+            return jax.lax.conv_general_dilated(x, kernel, (2, 2), ((3, 3), (3, 3)),
                                                 dimension_numbers=("NHWC", "HWIO", "NHWC"))
-        xp = jnp.pad(x, ((0, 0), (3, 3), (3, 3), (0, 0)))
-        m_h, m_w = (h + 6) // 2, (w + 6) // 2
-        blocks = xp.reshape(n, m_h, 2, m_w, 2, c).transpose(0, 1, 3, 2, 4, 5).reshape(n, m_h, m_w, 4 * c)
-        k8 = jnp.pad(kernel, ((0, 1), (0, 1), (0, 0), (0, 0)))
-        k = k8.reshape(4, 2, 4, 2, c, self.features).transpose(0, 2, 1, 3, 4, 5).reshape(4, 4, 4 * c, self.features)
-        return jax.lax.conv_general_dilated(blocks, k.astype(self.dtype), (1, 1), "VALID",
-                                            dimension_numbers=("NHWC", "HWIO", "NHWC"))
+        return stride2_conv_by_space_to_depth(x, kernel, 3)
 
 
 class DenseLayer(nn.Module):

@@ -26,7 +26,7 @@ import flax.linen as nn
 import jax
 import jax.numpy as jnp
 
-from .densenet import HE_NORMAL, batch_norm, conv, folded_batch_norm
+from .densenet import HE_NORMAL, batch_norm, conv, folded_batch_norm, stride2_conv_by_space_to_depth
 
 STRIDE = 8
 OFFSET = 3.5
@@ -46,8 +46,7 @@ def param_count(width: int, in_channels: int = 3) -> int:
 class StridedConv(nn.Module):
     """``nn.Conv(features, (4, 4), strides 2, padding 1, no bias)``: its parameter (``kernel``
     ``(4, 4, C, features)``) and its result.  ``space_to_depth``: computed as a 2x2 / 1 conv over
-    the padded input's 2 x 2 space-to-depth (kernel tap ``(2a + r, 2b + s)`` reads block
-    ``(a, b)`` at offset ``(r, s)``).  ``scale`` ``(features,)`` multiplies the kernel's output
+    the padded input's 2 x 2 space-to-depth (``densenet.stride2_conv_by_space_to_depth``).  ``scale`` ``(features,)`` multiplies the kernel's output
     channels (an eval-mode BatchNorm folded in).  ``(N, H, W, C) -> (N, H / 2, W / 2, features)``
     for even H, W."""
 
@@ -67,12 +66,7 @@ class StridedConv(nn.Module):
         if not self.space_to_depth:
             return jax.lax.conv_general_dilated(x, kernel.astype(self.dtype), (2, 2), ((1, 1), (1, 1)),
                                                 dimension_numbers=("NHWC", "HWIO", "NHWC"))
-        xp = jnp.pad(x, ((0, 0), (1, 1), (1, 1), (0, 0)))
-        m_h, m_w = (h + 2) // 2, (w + 2) // 2
-        blocks = xp.reshape(n, m_h, 2, m_w, 2, c).transpose(0, 1, 3, 2, 4, 5).reshape(n, m_h, m_w, 4 * c)
-        k = kernel.reshape(2, 2, 2, 2, c, self.features).transpose(0, 2, 1, 3, 4, 5).reshape(2, 2, 4 * c, self.features)
-        return jax.lax.conv_general_dilated(blocks, k.astype(self.dtype), (1, 1), "VALID",
-                                            dimension_numbers=("NHWC", "HWIO", "NHWC"))
+        return stride2_conv_by_space_to_depth(x, kernel.astype(self.dtype), 1)
 
 
 class SmallTrunk(nn.Module):
