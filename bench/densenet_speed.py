@@ -23,9 +23,8 @@ inputs from the same variables, and is checked against the module's output:
 * ``stem`` and ``stem_s2d``: the stem alone (conv0, norm0 folded, ReLU, max pool), each way,
   checked against the plain stem: its share of a pass.
 
-FLOPs as ``flop_count`` counts them (for the space-to-depth stem, and for ``module`` since it runs
-one, that includes the zero taps of its 8 x 8 kernel: 1.3 % more than the model's); MFU against a
-bf16 matmul measured here.  Needs only
+Model FLOPs as ``flop_count`` counts them (the space-to-depth stem as the 7 x 7 conv it computes);
+MFU against a bf16 matmul measured here.  Needs only
 jax and flax (no physics).  Timings mean something on a GPU only.
 """
 from __future__ import annotations

@@ -15,8 +15,7 @@ iteration's time goes, and the DQN update's model FLOP utilisation in bf16.
    iteration" is the whole iteration minus their sum (what fusion hides shows up negative).
    "host work per iteration" is a chunk's metrics copy to the host plus a checkpoint save,
    spread over the default chunk's iterations (train.py does this between chunks).
-3. Update MFU: the model FLOPs of one DQN update (``flop_count``, which for DenseNet-121 also
-   counts the zero taps of its space-to-depth stem, 1.3 % over the model's; XLA's ``cost_analysis`` is
+3. Update MFU: the model FLOPs of one DQN update (``flop_count``; XLA's ``cost_analysis`` is
    printed beside it; on an H100 it counted 1-3 % of the model FLOPs) x updates/s, against the peak
    of a large bf16 matrix multiply measured in this script on this device, for each trunk of
    ``--trunks`` (DenseNet-121 at the config's heightmap size and rotations); and the update's

@@ -43,6 +43,20 @@ def test_it_agrees_with_xla_on_cpu(trunk):
     assert 0.95 < cost["flops"] / ours < 1.0
 
 
+def test_space_to_depth_convs_count_the_model_flops_not_the_padded_taps():
+    """DenseNet-121's stem runs its 7x7 / 2 conv by space-to-depth over a kernel padded to 8 x 8;
+    the count is the 7 x 7 conv's, not the padded kernel's."""
+    from vags_jax.nets.densenet import StemConv
+
+    x = jnp.ones((2, 16, 16, 3), jnp.float32)
+    stem = StemConv(8)
+    v = stem.init(jax.random.PRNGKey(0), x)
+    fn = lambda x: stem.apply(v, x)  # noqa: E731
+    assert jaxpr_flops(jax.make_jaxpr(fn)(x).jaxpr) == 2 * 2 * 8 * 8 * 8 * 8 * 3 * 8  # as it runs
+    jax.jit(fn)(x)  # traced as it runs first, as the bench scripts time before they count
+    assert forward_flops(fn, x) == 2 * 2 * 8 * 8 * 7 * 7 * 3 * 8
+
+
 def test_scan_multiplies_and_cond_takes_the_larger_branch():
     a = jnp.ones((8, 8))
     scanned = lambda a: jax.lax.scan(lambda c, _: (c @ a, None), a, None, length=3)[0]  # noqa: E731
