@@ -45,7 +45,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from flop_count import forward_flops  # noqa: E402
 from timing import matmul_peak, timed  # noqa: E402
 
-from vags_jax.nets import densenet  # noqa: E402
+from vags_jax.nets import densenet, init_variables  # noqa: E402
 from vags_jax.nets.small import folded_batch_norm  # noqa: E402
 
 
@@ -139,10 +139,12 @@ def main(argv=None) -> int:
         raise SystemExit(f"--px must be a multiple of 32 (DenseNet-121's stride), got {args.px}")
     dtype = jnp.dtype(args.dtype)
     net = densenet.DenseNet121(dtype=dtype)
-    v = net.init(jax.random.PRNGKey(0), jnp.zeros((1, args.px, args.px, 3)), False)
-    # Running statistics away from (0, 1), so that the check covers BatchNorm's arithmetic.
-    v = {**v, "batch_stats": jax.tree.map(lambda s: s + 0.1 * jax.random.uniform(jax.random.PRNGKey(1), s.shape),
-                                          v["batch_stats"])}
+    # He-normal kernels (init_variables: no compile of flax's init), and running statistics away
+    # from (0, 1), so that the check covers BatchNorm's arithmetic.
+    shapes = jax.eval_shape(lambda k: net.init(k, jnp.zeros((1, args.px, args.px, 3)), False), jax.random.PRNGKey(0))
+    v = init_variables(jax.random.PRNGKey(0), shapes)
+    v = {**v, "batch_stats": jax.jit(lambda bs: jax.tree.map(
+        lambda s: s + 0.1 * jax.random.uniform(jax.random.PRNGKey(1), s.shape), bs))(v["batch_stats"])}
     on_gpu = jax.devices()[0].platform == "gpu"
     peak = matmul_peak(8192 if on_gpu else 512)
     print(f"device: {jax.devices()[0].device_kind}; DenseNet-121 eval, {args.dtype}, inputs {args.px} x {args.px}; "
