@@ -46,7 +46,7 @@ from flop_count import forward_flops  # noqa: E402
 from timing import matmul_peak, timed  # noqa: E402
 
 from vags_jax.nets import densenet, init_variables  # noqa: E402
-from vags_jax.nets.small import folded_batch_norm  # noqa: E402
+from vags_jax.nets.densenet import folded_batch_norm  # noqa: E402
 
 
 def _conv(x, kernel, stride: int = 1, pad: int = 0):
