@@ -20,12 +20,29 @@ inputs from the same variables, and is checked against the module's output:
 * ``folded_s2d``: as ``folded``, with the stem's 7x7 / 2 convolution over 3 channels run as a
   4x4 / 1 convolution over the 2 x 2 space-to-depth of its padded input (12 channels; the kernel
   padded to 8 x 8 with zeros): the same sums in fewer, wider taps;
+* ``folded_s2d_dot``: as ``folded_s2d``, with every 1x1 convolution (each dense layer's
+  ``conv1``, each transition's ``conv``) a matrix product over the channel axis (``dot_general``)
+  and the BatchNorm affine + ReLU before it written as its operand: whether XLA fuses that
+  elementwise prologue into a GEMM (it does not into a cuDNN convolution);
+* ``folded_s2d_poolfirst``: as ``folded_s2d``, each transition BN-ReLU, 2x2 / 2 average pool,
+  then the 1x1 convolution: the same function (a bias-free 1x1 conv and the average pool are
+  both linear, one per pixel, one per channel: they commute), the conv over a quarter of the
+  pixels, so fewer executed FLOPs than the module's (``module_flops`` below);
+* ``folded_s2d_pooldot``: both of the above (whether their gains add up);
+* ``upto_stem``, ``upto_block1``, ``upto_trans1``, ``upto_block2``, ``upto_trans2``,
+  ``upto_block3``, ``upto_trans3``, ``upto_block4``: ``folded_s2d`` cut after that stage
+  (``upto_block4``: the whole pass, ``norm5`` included), each checked against the module's own
+  result at the same cut (``module_cuts``, computed once, not timed): cumulative times, whose
+  differences are each stage's time;
 * ``stem`` and ``stem_s2d``: the stem alone (conv0, norm0 folded, ReLU, max pool), each way,
   checked against the plain stem: its share of a pass.
 
-Model FLOPs as ``flop_count`` counts them (the space-to-depth stem as the 7 x 7 conv it computes);
-MFU against a bf16 matmul measured here.  Needs only
-jax and flax (no physics).  Timings mean something on a GPU only.
+``flops``: the form's executed FLOPs as ``flop_count`` counts them (the space-to-depth stem as the
+7 x 7 conv it computes), ``mfu`` from them; ``module_flops``: the module's count for the same
+result (the whole pass, or its stages up to the cut), ``mfu_of_module_flops`` from them: the same
+model's FLOPs in the form's time (differs from ``mfu`` for the pool-first forms only).  MFU
+against a bf16 matmul measured here.  Needs only jax and flax (no physics).  Timings mean
+something on a GPU only.
 """
 from __future__ import annotations
 
@@ -35,6 +52,7 @@ import os
 import sys
 import time
 
+import flax.linen as nn
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -89,17 +107,54 @@ def stem(v, x, dtype, s2d: bool = False):
                                  ((0, 0), (1, 1), (1, 1), (0, 0)))
 
 
-def _dense_layer(v, block: str, i: int, x):
+def _pointwise(x, kernel, dot: bool = False):
+    """A 1x1 convolution, ``kernel`` ``(1, 1, C, F)``: a ``lax`` convolution, or with ``dot`` a
+    matrix product over x's channel axis (result in x's dtype, as the convolution's)."""
+    if not dot:
+        return _conv(x, kernel)
+    return jax.lax.dot_general(x, kernel[0, 0].astype(x.dtype), (((x.ndim - 1,), (0,)), ((), ())))
+
+
+def _avg_pool2(x):
+    """2x2 / 2 average pool (summed in float32)."""
+    n, h, w, c = x.shape
+    return x.reshape(n, h // 2, 2, w // 2, 2, c).mean(axis=(2, 4), dtype=jnp.float32).astype(x.dtype)
+
+
+def _dense_layer(v, block: str, i: int, x, dot: bool = False):
+    """norm1-ReLU-conv1 (norm2 folded)-ReLU-conv2 3x3; ``dot``: conv1 as a matrix product."""
     name = f"denselayer{i + 1}"
     p = v["params"][block][name]
     y = _affine_relu(x, *_bn(v, block, name, "norm1"))
-    y = _conv_bn_relu(y, p["conv1"]["kernel"], *_bn(v, block, name, "norm2"))
+    mul, shift = _bn(v, block, name, "norm2")
+    y = jax.nn.relu(_pointwise(y, p["conv1"]["kernel"] * mul, dot) + shift.astype(y.dtype))
     return _conv(y, p["conv2"]["kernel"], pad=1)
 
 
-def folded_forward(v, x, dtype, buffer: bool = False, s2d: bool = False):
-    """DenseNet-121 eval mode, BatchNorms after convolutions folded (module docstring)."""
+def _transition(v, t: str, x, dot: bool = False, pool_first: bool = False):
+    """norm-ReLU-conv 1x1-avgpool 2x2 / 2; ``pool_first``: pool, then the conv (the two commute:
+    both linear, the conv bias-free), which then runs over a quarter of the pixels."""
+    y = _affine_relu(x, *_bn(v, t, "norm"))
+    kernel = v["params"][t]["conv"]["kernel"]
+    if pool_first:
+        return _pointwise(_avg_pool2(y), kernel, dot)
+    return _avg_pool2(_pointwise(y, kernel, dot))
+
+
+# Where an ``upto_*`` form cuts the pass: after the stem, each dense block, each transition
+# (``block4``: the whole pass, norm5 included).
+CUTS = ("stem", "block1", "trans1", "block2", "trans2", "block3", "trans3", "block4")
+# The module's children each cut follows (block4's result: the module's, after norm5).
+_CUT_AFTER = {**{f"denseblock{b}": f"block{b}" for b in (1, 2, 3, 4)}, **{f"transition{b}": f"trans{b}" for b in (1, 2, 3)}}
+
+
+def folded_forward(v, x, dtype, buffer: bool = False, s2d: bool = False, dot: bool = False,
+                   pool_first: bool = False, upto: str = "block4"):
+    """DenseNet-121 eval mode, BatchNorms after convolutions folded (module docstring for the
+    options); ``upto``: the result at that cut (``CUTS``)."""
     x = stem(v, x, dtype, s2d)
+    if upto == "stem":
+        return x
     channels = densenet.INIT_FEATURES
     for b, n_layers in enumerate(densenet.BLOCK_CONFIG):
         block = f"denseblock{b + 1}"
@@ -109,21 +164,61 @@ def folded_forward(v, x, dtype, buffer: bool = False, s2d: bool = False):
             buf = jax.lax.dynamic_update_slice(buf, x, (0, 0, 0, 0))
             for i in range(n_layers):
                 c = channels + i * densenet.GROWTH
-                y = _dense_layer(v, block, i, buf[..., :c])
+                y = _dense_layer(v, block, i, buf[..., :c], dot)
                 buf = jax.lax.dynamic_update_slice(buf, y, (0, 0, 0, c))
             x = buf
         else:
             for i in range(n_layers):
-                x = jnp.concatenate([x, _dense_layer(v, block, i, x)], axis=-1)
+                x = jnp.concatenate([x, _dense_layer(v, block, i, x, dot)], axis=-1)
         channels = width
         if b != len(densenet.BLOCK_CONFIG) - 1:
-            t = f"transition{b + 1}"
-            y = _conv(_affine_relu(x, *_bn(v, t, "norm")), v["params"][t]["conv"]["kernel"])
-            n, h, w, c = y.shape
-            x = y.reshape(n, h // 2, 2, w // 2, 2, c).mean(axis=(2, 4), dtype=jnp.float32).astype(y.dtype)
+            if upto == f"block{b + 1}":
+                return x
+            x = _transition(v, f"transition{b + 1}", x, dot, pool_first)
             channels //= 2
+            if upto == f"trans{b + 1}":
+                return x
     mul, shift = _bn(v, "norm5")
     return x * mul.astype(x.dtype) + shift.astype(x.dtype)
+
+
+def _skipped(module, x):
+    """Zeros of the shape a dense block or transition would return for ``x``: its stand-in after
+    the cut (neither run nor counted)."""
+    n, h, w, c = x.shape
+    if isinstance(module, densenet.Transition):
+        return jnp.zeros((n, h // 2, w // 2, module.features), x.dtype)
+    return jnp.zeros((n, h, w, c + module.n_layers * module.growth), x.dtype)
+
+
+def module_cuts(net, v, x, last: str = "block4") -> dict:
+    """The module's own results at each cut up to ``last`` (``CUTS``), ``{cut: array}``: the stem's
+    is denseblock1's input, a block's or transition's its output, ``block4``'s the module's
+    output; the blocks and transitions after ``last`` are not run (``_skipped``), so the FLOPs
+    of this function are the module's up to ``last``."""
+    stop = CUTS.index(last)
+    cuts = {}
+
+    def record(next_fun, args, kwargs, context):
+        name = context.module.name if context.method_name == "__call__" else None
+        if name not in _CUT_AFTER:  # the stem's and the dense layers' modules, norm5
+            return next_fun(*args, **kwargs)
+        if name == "denseblock1":
+            cuts["stem"] = args[0]
+        if CUTS.index(_CUT_AFTER[name]) > stop:
+            return _skipped(context.module, args[0])
+        cuts[_CUT_AFTER[name]] = out = next_fun(*args, **kwargs)
+        return out
+
+    with nn.intercept_methods(record):
+        cuts["block4"] = net.apply(v, x, False)  # after norm5, not denseblock4's output
+    return {c: cuts[c] for c in CUTS[:stop + 1]}
+
+
+def _cut_of(form: str) -> str:
+    """The cut whose module result a form computes: the stem forms the stem, ``upto_*`` theirs,
+    the others the whole pass."""
+    return "stem" if form.startswith("stem") else form[len("upto_"):] if form.startswith("upto_") else "block4"
 
 
 def main(argv=None) -> int:
@@ -132,7 +227,11 @@ def main(argv=None) -> int:
     p.add_argument("--batches", default="1024", help="images per pass (comma-separated)")
     p.add_argument("--dtype", default="bfloat16")
     p.add_argument("--reps", type=int, default=10)
-    p.add_argument("--forms", default="module,folded,folded_buffer", help="module first: the others are checked against it")
+    p.add_argument("--forms", default="module,folded,folded_buffer",
+                   help="comma-separated, module first (the others are checked against it): module, folded, "
+                        "folded_buffer, folded_s2d, folded_s2d_dot, folded_s2d_poolfirst, folded_s2d_pooldot, "
+                        + ", ".join(f"upto_{c}" for c in CUTS) + " (checked against the module's result at the cut), "
+                        "stem, stem_s2d (stem first: checked against it); the module docstring says what each is")
     p.add_argument("--out", default=None)
     args = p.parse_args(argv)
     if args.px % 32:
@@ -153,13 +252,23 @@ def main(argv=None) -> int:
                  "folded": lambda v, x: folded_forward(v, x, dtype),
                  "folded_buffer": lambda v, x: folded_forward(v, x, dtype, buffer=True),
                  "folded_s2d": lambda v, x: folded_forward(v, x, dtype, s2d=True),
+                 "folded_s2d_dot": lambda v, x: folded_forward(v, x, dtype, s2d=True, dot=True),
+                 "folded_s2d_poolfirst": lambda v, x: folded_forward(v, x, dtype, s2d=True, pool_first=True),
+                 "folded_s2d_pooldot": lambda v, x: folded_forward(v, x, dtype, s2d=True, dot=True, pool_first=True),
+                 **{f"upto_{c}": lambda v, x, c=c: folded_forward(v, x, dtype, s2d=True, upto=c) for c in CUTS},
                  "stem": lambda v, x: stem(v, x, dtype),
                  "stem_s2d": lambda v, x: stem(v, x, dtype, s2d=True)}
     forms = {k: all_forms[k] for k in args.forms.split(",") if k}
+    # The module's results the forms are checked against, up to the deepest cut an upto_* form
+    # asks for, and its whole output (block4) when the module is not itself a form: one call.
+    need = [CUTS.index(_cut_of(k)) for k in forms if k.startswith("upto_")] + [len(CUTS) - 1] * ("module" not in forms)
     rows = []
     for n in [int(b) for b in args.batches.split(",") if b]:
         x = jax.random.normal(jax.random.PRNGKey(n), (n, args.px, args.px, 3))
-        ref = None if "module" in forms else np.asarray(jax.jit(all_forms["module"])(v, x), np.float32)
+        cut_refs = {} if not need else {c: np.asarray(y, np.float32) for c, y in jax.jit(
+            lambda v, x: module_cuts(net, v, x, CUTS[max(need)]))(v, x).items()}
+        ref = None if "module" in forms else cut_refs["block4"]
+        module_flops = {}  # cut -> the module's FLOPs up to it
         stems = {}
         for name, fn in forms.items():
             t0 = time.perf_counter()
@@ -171,16 +280,24 @@ def main(argv=None) -> int:
             ref = out if ref is None else ref
             if name.startswith("stem"):  # checked against the plain stem
                 base = stems.setdefault("ref", out)
-                err = float(np.abs(out - base).max() / max(np.abs(base).max(), 1e-9))
+            elif name.startswith("upto_"):  # against the module's result at the same cut
+                base = cut_refs[_cut_of(name)]
             else:
-                err = float(np.abs(out - ref).max() / max(np.abs(ref).max(), 1e-9))
+                base = ref
+            err = float(np.abs(out - base).max() / max(np.abs(base).max(), 1e-9))
             flops = forward_flops(fn, v, x)
+            cut = _cut_of(name)
+            if cut not in module_flops:
+                module_flops[cut] = forward_flops(lambda v, x: module_cuts(net, v, x, cut)[cut], v, x)
             row = {"form": name, "images": n, "s": dt, "ms_per_1024_images": 1e3 * dt * 1024 / n, "flops": flops,
-                   "flops_per_s": flops / dt, "mfu": flops / dt / peak, "compile_s": compile_s,
+                   "flops_per_s": flops / dt, "mfu": flops / dt / peak, "module_flops": module_flops[cut],
+                   "mfu_of_module_flops": module_flops[cut] / dt / peak, "compile_s": compile_s,
                    "max_rel_diff_to_module": err}
             rows.append(row)
-            print(f"  {name:14s} {n:5d} images: {dt * 1e3:8.2f} ms, {row['ms_per_1024_images']:7.2f} ms per 1024, "
-                  f"{flops / dt / 1e12:6.1f} TFLOP/s = {100 * row['mfu']:4.1f} % MFU; compiled in {compile_s:.1f} s; "
+            model = "" if flops == module_flops[cut] else (
+                f" (the module's {module_flops[cut] / 1e9:.3g} GFLOP: {100 * row['mfu_of_module_flops']:4.1f} % MFU)")
+            print(f"  {name:20s} {n:5d} images: {dt * 1e3:8.2f} ms, {row['ms_per_1024_images']:7.2f} ms per 1024, "
+                  f"{flops / dt / 1e12:6.1f} TFLOP/s = {100 * row['mfu']:4.1f} % MFU{model}; compiled in {compile_s:.1f} s; "
                   f"max |diff| / max |out| to module {err:.1e}", flush=True)
     if args.out:
         os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)

@@ -1,23 +1,81 @@
 """bench/densenet_speed.py on a tiny input on CPU: every formulation of DenseNet-121's eval pass
-(and of its stem) computes the module's result and is counted at the same model FLOPs."""
+(and of its stem, and of its prefixes) computes the module's result and is counted at the model
+FLOPs it executes.  One run of the script for all forms: DenseNet-121 compiles slowly on CPU."""
 import json
 import os
 import sys
 
+import pytest
+
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "bench"))
 import densenet_speed  # noqa: E402
 
+# No "module" form: the script checks against the module's output computed with its cuts (one
+# compile of DenseNet-121 less); every row's module_flops is the module's own count.
+WHOLE = ["folded_s2d", "folded_s2d_dot", "folded_s2d_poolfirst", "folded_s2d_pooldot"]
+UPTO = [f"upto_{c}" for c in densenet_speed.CUTS]
+STEMS = ["stem", "stem_s2d"]
 
-def test_formulations_agree_with_the_module_and_count_the_same_flops(tmp_path):
-    out = str(tmp_path / "speed.json")
-    forms = ["module", "folded_s2d", "stem", "stem_s2d"]
+
+@pytest.fixture(scope="module")
+def rows(tmp_path_factory):
+    out = str(tmp_path_factory.mktemp("densenet_speed") / "speed.json")
+    forms = WHOLE + UPTO + STEMS
     assert densenet_speed.main(["--px", "32", "--batches", "1", "--reps", "1", "--dtype", "float32",
                                 "--forms", ",".join(forms), "--out", out]) == 0
     with open(out) as f:
         rows = {r["form"]: r for r in json.load(f)["rows"]}
     assert list(rows) == forms and all(r["s"] > 0 and r["images"] == 1 for r in rows.values())
-    for group in (forms[:2], forms[2:]):  # whole passes; stems
-        assert len({rows[k]["flops"] for k in group}) == 1, {k: rows[k]["flops"] for k in group}
-        assert all(rows[k]["max_rel_diff_to_module"] < 1e-5 for k in group), rows
+    return rows
+
+
+def _conv_flops(px, k, c_in, c_out):
+    return 2 * px * px * k * k * c_in * c_out
+
+
+def _cumulative_flops():
+    """The module's FLOPs up to each cut for one 32 x 32 image, from the layer arithmetic: stem
+    16 x 16, blocks on 8, 4, 2, 1 px; a dense layer 1x1 to 128 channels, 3x3 to 32."""
+    total, out = _conv_flops(16, 7, 3, 64), {"stem": _conv_flops(16, 7, 3, 64)}
+    channels = 64
+    for b, (n_layers, px) in enumerate(zip((6, 12, 24, 16), (8, 4, 2, 1))):
+        for i in range(n_layers):
+            total += _conv_flops(px, 1, channels + 32 * i, 128) + _conv_flops(px, 3, 128, 32)
+        channels += 32 * n_layers
+        out[f"block{b + 1}"] = total
+        if b < 3:
+            total += _conv_flops(px, 1, channels, channels // 2)
+            channels //= 2
+            out[f"trans{b + 1}"] = total
+    return out
+
+
+def test_whole_passes_agree_with_the_module(rows):
+    assert all(rows[k]["max_rel_diff_to_module"] < 1e-5 for k in WHOLE), {k: rows[k]["max_rel_diff_to_module"] for k in WHOLE}
+    assert {rows[k]["module_flops"] for k in WHOLE} == {_cumulative_flops()["block4"]}
+
+
+def test_dot_forms_count_the_modules_flops_and_pool_first_a_quarter_of_the_transitions(rows):
+    module = rows["folded_s2d"]["module_flops"]
+    assert rows["folded_s2d"]["flops"] == rows["folded_s2d_dot"]["flops"] == module
+    # The transitions' 1x1 convs on 8 x 8, 4 x 4, 2 x 2: pool-first runs them on a quarter of the pixels.
+    transitions = _conv_flops(8, 1, 256, 128) + _conv_flops(4, 1, 512, 256) + _conv_flops(2, 1, 1024, 512)
+    assert rows["folded_s2d_poolfirst"]["flops"] == rows["folded_s2d_pooldot"]["flops"] == module - transitions * 3 // 4
+    for k in ("folded_s2d_poolfirst", "folded_s2d_pooldot"):
+        assert rows[k]["mfu_of_module_flops"] > rows[k]["mfu"]
+
+
+def test_each_prefix_agrees_with_the_module_at_its_cut(rows):
+    assert all(rows[k]["max_rel_diff_to_module"] < 1e-5 for k in UPTO), {k: rows[k]["max_rel_diff_to_module"] for k in UPTO}
+    flops = [rows[k]["flops"] for k in UPTO]
+    assert all(a < b for a, b in zip(flops, flops[1:])), flops
+    assert flops[-1] == rows["folded_s2d"]["module_flops"]
+    # Each cut where the layer arithmetic puts it, the module's prefix counted the same.
+    assert {k: rows[k]["module_flops"] for k in UPTO} == {k: rows[k]["flops"] for k in UPTO} == {
+        f"upto_{c}": f for c, f in _cumulative_flops().items()}
+
+
+def test_stems_agree_and_count_the_7x7_conv(rows):
+    assert rows["stem_s2d"]["max_rel_diff_to_module"] < 1e-5 and rows["stem_s2d"]["flops"] == rows["stem"]["flops"]
     # The stem's model FLOPs: a 7 x 7 / 2 conv from 3 to 64 channels on 32 x 32 (no zero taps).
-    assert rows["stem"]["flops"] == 2 * 16 * 16 * 7 * 7 * 3 * 64
+    assert rows["stem"]["flops"] == rows["stem"]["module_flops"] == 2 * 16 * 16 * 7 * 7 * 3 * 64
