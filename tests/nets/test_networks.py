@@ -341,6 +341,34 @@ def test_densenet121_eval_mode_folds_the_batchnorms_after_convolutions(densenet_
     np.testing.assert_allclose(folded, unfolded, rtol=1e-4, atol=1e-5 * np.abs(unfolded).max())
 
 
+def test_densenet_transition_pools_before_its_conv_and_computes_conv_then_pool():
+    """``Transition`` runs BN-ReLU-avgpool-1x1 conv; its result in both modes (and its running
+    statistics in train mode) are torchvision's order, BN-ReLU-1x1 conv-avgpool, also on odd
+    sizes, where both orders drop the last row and column."""
+    from vags_jax.nets import densenet
+
+    t = densenet.Transition(3)
+    x = jax.random.normal(jax.random.PRNGKey(12), (2, 6, 7, 5))
+    v = t.init(jax.random.PRNGKey(13), x, False)
+    v = {"params": v["params"], "batch_stats": jax.tree.map(lambda a: a + 0.3, v["batch_stats"])}
+    v["params"]["norm"] = {"scale": jnp.linspace(0.5, 1.5, 5), "bias": jnp.linspace(-0.4, 0.4, 5)}
+
+    def conv_then_pool(variables, x, train):
+        bn = densenet.batch_norm("norm", train, jnp.float32)
+        y, upd = bn.apply({"params": variables["params"]["norm"], "batch_stats": variables["batch_stats"]["norm"]},
+                          x, mutable=["batch_stats"])
+        y = densenet.conv(3, 1, "conv", jnp.float32).apply({"params": variables["params"]["conv"]}, nn.relu(y))
+        return nn.avg_pool(y, (2, 2), strides=(2, 2), padding="VALID"), upd["batch_stats"]
+
+    for train in (False, True):
+        got, upd = t.apply(v, x, train, mutable=["batch_stats"])
+        want, want_stats = conv_then_pool(v, x, train)
+        assert got.shape == (2, 3, 3, 3)
+        np.testing.assert_allclose(np.asarray(got), np.asarray(want), rtol=1e-5, atol=1e-6)
+        for a, b in zip(jax.tree.leaves(upd["batch_stats"]["norm"]), jax.tree.leaves(want_stats)):
+            np.testing.assert_allclose(np.asarray(a), np.asarray(b), rtol=1e-6)
+
+
 # ----------------------------------------------------------------------------- pretrained loading
 
 
