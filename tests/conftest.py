@@ -14,20 +14,27 @@ import subprocess
 import sys
 import tempfile
 
-# XLA's CPU compiler with its older (LLVM IR) fusion emitters instead of the MLIR fusion emitters
-# it uses by default: the suite's programs compile in about 30 % less CPU time and run as fast
-# (2026-11-27, 2 cores, jaxlib 0.10.2: the tiny stage-1 reset 25.9 -> 18.6 s, its chunk of 2
-# iterations 42.2 -> 30.3 s).  Results can differ from the default emitters' in the last bits, so
-# the suite's bit-for-bit checks compare runs under this one setting.  Set here, before JAX starts
-# its backend, so that the xdist workers and the train.py / eval.py subprocesses inherit it; a
-# jaxlib that no longer knows the flag (XLA aborts on an unknown flag) runs with the default.
-_EMITTERS = "--xla_cpu_use_fusion_emitters=false"
+# Two settings of XLA's CPU compiler, for the suite's processes only:
+# * its older (LLVM IR) fusion emitters instead of the MLIR fusion emitters it uses by default:
+#   the suite's programs compile in about 30 % less CPU time and run as fast (2026-11-27, 2 cores,
+#   jaxlib 0.10.2: the tiny stage-1 reset 25.9 -> 18.6 s, its chunk of 2 iterations 42.2 -> 30.3 s);
+# * LLVM's optimization level 1 instead of 2 (--xla_backend_optimization_level): the whole suite
+#   took 17 % less CPU time (2026-11-29, 2 cores: user 1,138 against 1,370 s), compiling being
+#   most of it (bench/RESULTS.md, "Suite time").
+# Results can differ from the defaults' in the last bits, so the suite's bit-for-bit checks
+# compare runs under these settings.  Set here, before JAX starts its backend, so that the xdist
+# workers and the train.py / eval.py subprocesses inherit them; a flag that a jaxlib no longer
+# knows (XLA aborts on an unknown flag) is left out, and the suite runs with its default.
+_SUITE_FLAGS = ("--xla_cpu_use_fusion_emitters=false", "--xla_backend_optimization_level=1")
 _PROBED = "VAGS_JAX_TEST_XLA_FLAGS_PROBED"
-if _EMITTERS not in os.environ.get("XLA_FLAGS", "") and not os.environ.get(_PROBED):
-    _flags = (os.environ.get("XLA_FLAGS", "") + " " + _EMITTERS).strip()
-    if subprocess.run([sys.executable, "-c", "import jax; jax.devices('cpu')"], env={**os.environ, "XLA_FLAGS": _flags},
-                      capture_output=True).returncode == 0:
-        os.environ["XLA_FLAGS"] = _flags
+if not os.environ.get(_PROBED):
+    for _flag in _SUITE_FLAGS:
+        if _flag.split("=")[0] in os.environ.get("XLA_FLAGS", ""):
+            continue  # set by the caller
+        _flags = (os.environ.get("XLA_FLAGS", "") + " " + _flag).strip()
+        if subprocess.run([sys.executable, "-c", "import jax; jax.devices('cpu')"],
+                          env={**os.environ, "XLA_FLAGS": _flags}, capture_output=True).returncode == 0:
+            os.environ["XLA_FLAGS"] = _flags
     os.environ[_PROBED] = "1"
 
 # Python's garbage collector ran 7 % of the CPU time of compiling the stage-1 reset (perf): tracing

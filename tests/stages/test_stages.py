@@ -252,12 +252,21 @@ def test_stage3_direct_keeps_its_fused_map_grasps_out_of_gdnets_replay(runs, pro
     assert [(p.train_gdnet, p.fused_to_replay) for p in modes.values()] == [(True, True), (True, False), (False, True)]
     gd2, va2, su2, thr2 = pipeline.stage2_result(full, base)
     program = modes["direct"]
-    state, metrics = fold.run_stage(fold.stage_fns("stage3", program), program.init(
-        pipeline.stage_key(base, "stage3"), gd2, None, va2, thr2, su2), 4, chunk=2)
-    m = {k: np.concatenate([np.asarray(c[k]) for c in metrics]) for k in metrics[0]}
+    # The "success" gate starts from an optimistic mean success after a move (1), so the tiny run
+    # can move the camera on all but one of its 8 attempts, and GDNet's replay needs
+    # learning_starts direct grasps before GDNet and the success net learn: less optimistic
+    # starts (the state's calibration, traced: the same program) until it gets them, moves left.
+    start = program.init(pipeline.stage_key(base, "stage3"), gd2, None, va2, thr2, su2)
+    assert base.vags.gate == "success" and base.vags.view_estimate == "mean"  # the gate this works on
+    for after_move in (1.0, 0.9, 0.8, 0.7, 0.5):
+        state, metrics = fold.run_stage(fold.stage_fns("stage3", program), start.replace(
+            calibration=start.calibration.at[2].set(after_move)), 4, chunk=2)
+        m = {k: np.concatenate([np.asarray(c[k]) for c in metrics]) for k in metrics[0]}
+        direct = np.round((1 - m["view_share"]) * m["attempts"]).sum()
+        if base.stage3.learning_starts <= direct < m["attempts"].sum():
+            break
     assert m["updates"].sum() > 0
-    direct = np.round((1 - m["view_share"]) * m["attempts"]).sum()
-    assert 0 < direct < m["attempts"].sum(), "the test needs both direct grasps and moves"
+    assert base.stage3.learning_starts <= direct < m["attempts"].sum(), "the test needs direct grasps and moves"
     assert not checkpoint.tree_equal(state.success.params, su2.params), "the success net did not learn"
     assert not checkpoint.tree_equal(state.gdnet.params, gd2.params), "GDNet did not learn in stage 3"
     assert int(state.gdnet_replay.size) == direct, "a grasp on a fused map reached GDNet's replay"
