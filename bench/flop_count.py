@@ -17,8 +17,8 @@ of a pass) are not counted as model FLOPs.
 
 DenseNet-121's transitions (``densenet.pooled_pointwise_conv``: the 1x1 conv after the 2x2
 average pool, on a quarter of the pixels) are traced in torchvision's order, conv then pool, so
-that the model FLOPs stay the architecture's own (the three convs' 10.9 % of a pass, not a quarter of that)
-and MFU figures stay comparable.
+that the model FLOPs stay the architecture's own (the three convs' 10.9 % of a pass, not a
+quarter of that) and MFU figures stay comparable.
 
 Count a forward pass; a training step's model FLOPs are the usual 3 x forward (forward, and
 the two products of the backward pass), which leaves out the zeros a strided convolution's
