@@ -27,14 +27,22 @@ import tempfile
 # knows (XLA aborts on an unknown flag) is left out, and the suite runs with its default.
 _SUITE_FLAGS = ("--xla_cpu_use_fusion_emitters=false", "--xla_backend_optimization_level=1")
 _PROBED = "VAGS_JAX_TEST_XLA_FLAGS_PROBED"
+
+
+def _xla_accepts(flags: str) -> bool:
+    return subprocess.run([sys.executable, "-c", "import jax; jax.devices('cpu')"],
+                          env={**os.environ, "XLA_FLAGS": flags}, capture_output=True).returncode == 0
+
+
 if not os.environ.get(_PROBED):
-    for _flag in _SUITE_FLAGS:
-        if _flag.split("=")[0] in os.environ.get("XLA_FLAGS", ""):
-            continue  # set by the caller
-        _flags = (os.environ.get("XLA_FLAGS", "") + " " + _flag).strip()
-        if subprocess.run([sys.executable, "-c", "import jax; jax.devices('cpu')"],
-                          env={**os.environ, "XLA_FLAGS": _flags}, capture_output=True).returncode == 0:
-            os.environ["XLA_FLAGS"] = _flags
+    _new = [f for f in _SUITE_FLAGS if f.split("=")[0] not in os.environ.get("XLA_FLAGS", "")]  # not the caller's
+    _base = os.environ.get("XLA_FLAGS", "")
+    if _new and _xla_accepts(" ".join([_base] + _new).strip()):  # one start of JAX when all are known
+        os.environ["XLA_FLAGS"] = " ".join([_base] + _new).strip()
+    else:
+        for _flag in _new:
+            if _xla_accepts((os.environ.get("XLA_FLAGS", "") + " " + _flag).strip()):
+                os.environ["XLA_FLAGS"] = (os.environ.get("XLA_FLAGS", "") + " " + _flag).strip()
     os.environ[_PROBED] = "1"
 
 # Python's garbage collector ran 7 % of the CPU time of compiling the stage-1 reset (perf): tracing
