@@ -46,9 +46,9 @@ def param_count(width: int, in_channels: int = 3) -> int:
 class StridedConv(nn.Module):
     """``nn.Conv(features, (4, 4), strides 2, padding 1, no bias)``: its parameter (``kernel``
     ``(4, 4, C, features)``) and its result.  ``space_to_depth``: computed as a 2x2 / 1 conv over
-    the padded input's 2 x 2 space-to-depth (``densenet.stride2_conv_by_space_to_depth``).  ``scale`` ``(features,)`` multiplies the kernel's output
-    channels (an eval-mode BatchNorm folded in).  ``(N, H, W, C) -> (N, H / 2, W / 2, features)``
-    for even H, W."""
+    the padded input's 2 x 2 space-to-depth (``densenet.stride2_conv_by_space_to_depth``).
+    ``scale`` ``(features,)`` multiplies the kernel's output channels (an eval-mode BatchNorm
+    folded in).  ``(N, H, W, C) -> (N, H / 2, W / 2, features)`` for even H, W."""
 
     features: int
     dtype: jnp.dtype = jnp.float32
