@@ -167,10 +167,12 @@ def _evaluate(args, plan, t_main: float, argv) -> int:
         if table is not None:
             extra["rate_gate"] = {**rate_gate.moves_summary(table, cfg.vags.max_motion_number),
                                   "estimate": cfg.vags.gate_estimate, "close_score": cfg.vags.close_score,
+                                  "direct_score": cfg.vags.direct_score,
                                   "cap_split": cfg.vags.cap_split, "edges": [round(e, 5) for e in table.edges]}
             g = extra["rate_gate"]
             log(f"rate gate: moves in bins {g['moving_bins']} of {g['bins']} (lowest p_direct, the success net's "
-                f"{g['estimate']!r} estimate, first; grasps after a move scored by {g['close_score']!r}); its table "
+                f"{g['estimate']!r} estimate, first; direct grasps planned by {g['direct_score']!r}, grasps after a move "
+                f"scored by {g['close_score']!r}); its table "
                 f"predicts a motion number of {g['motion_number']:.3f} and {100 * g['success']:.1f} % success"
                 + (f" (vags.max_motion_number={g['max_motion_number']:g})" if g["max_motion_number"] else ""))
     overall = {}

@@ -608,6 +608,24 @@ def test_the_gate_measure_can_follow_the_moves(runs, programs):
     assert differ, "no pile whose two branches left different numbers of objects: nothing was checked"
 
 
+def test_the_gate_measure_with_success_planned_direct_grasps_also_grasps_at_gdnets_argmax(runs, programs):
+    """``--direct-score success``: the table's direct grasp is the success net's half-turn-mean
+    argmax, recorded in its meta, and its states also hold GDNet's direct grasp from the same
+    state ("gdnet" branch).  From the same first piles, that branch is the "q" table's direct
+    grasp, and the planned grasp's half-turn mean (``p_symmetric``) is never below GDNet's."""
+    kw = dict(steps=2, seed=0, log=lambda m: None, programs=programs, gdnet="stage3")
+    _, meta_q, q = gate_measure.measure(runs[0], **kw)
+    _, meta_s, s = gate_measure.measure(runs[0], direct_score="success", **kw)
+    assert (meta_q["direct_score"], meta_s["direct_score"]) == ("q", "success")
+    assert "gdnet_success" not in q
+    first_q, first_s = ({k: v[r["attempt"] == 0] for k, v in r.items()} for r in (q, s))
+    np.testing.assert_array_equal(first_s["world"], first_q["world"])
+    for k in ("success", "lost", "seconds"):
+        np.testing.assert_array_equal(first_s[f"gdnet_{k}"], first_q[f"direct_{k}"], err_msg=k)
+    assert (first_s["p_symmetric"] >= first_q["p_symmetric"] - 1e-6).all()
+    assert s["gdnet_success"].shape == s["direct_success"].shape == s["p_direct"].shape
+
+
 def test_metrics_are_sane(runs):
     rows = _metrics(os.path.join(runs[0], "metrics.jsonl"))
     for r in rows:

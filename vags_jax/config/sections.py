@@ -650,6 +650,7 @@ VAGS_STAGE3_GDNET_PICKS = ("rate", "last")
 VAGS_CLOSE_REGIONS = ("seen", "map")
 VAGS_GATE_ESTIMATES = ("grasp", "symmetric", "window")
 VAGS_CLOSE_SCORES = ("q", "success")
+VAGS_DIRECT_SCORES = ("q", "success")
 
 
 @dataclass(frozen=True)
@@ -721,6 +722,13 @@ class Vags:
       used (eval.py, the rate gate's table, predict); training scores by
       ``train_close_score``.  The table records it (RUN/gate.json "close_score"), and a run is
       evaluated with the setting its table was measured with.
+    direct_score: what plans the direct grasp from the global view.  "q": GDNet's argmax (the
+      paper); "success": the argmax of the success net's half-turn mean over the global maps,
+      the score the "gdnet" planner maximizes after a move under ``close_score="success"`` (so
+      ``--no-viewpoint`` then measures the same planner without the move).  Read where a
+      trained run is used (eval.py, the rate gate's table, predict); training plans GDNet's
+      argmax.  The table records it (RUN/gate.json "direct_score"), and a run is evaluated with
+      the setting its table was measured with.
     train_close_score: ``close_score`` for the grasps after a move in training (stages 2-3):
       "success" makes VANet's reward and the running success after a move follow the grasp
       the evaluation makes under ``close_score="success"``; "q": GDNet's Q.  The NBV baseline
@@ -764,6 +772,7 @@ class Vags:
     gate_estimate: str = "grasp"
     close_score: str = "q"
     train_close_score: str = "q"
+    direct_score: str = "q"
 
     def __post_init__(self):
         _check(self.local_planner in VAGS_LOCAL_PLANNERS,
@@ -787,6 +796,8 @@ class Vags:
             _check(value == "q" or self.local_planner == "gdnet",
                    f"Vags.{name}={value!r} scores the 'gdnet' close-view planner's cells, and local_planner is "
                    f"{self.local_planner!r}: set vags.{name}=q or vags.local_planner=gdnet")
+        _check(self.direct_score in VAGS_DIRECT_SCORES,
+               f"Vags.direct_score must be one of {VAGS_DIRECT_SCORES}, got {self.direct_score!r}")
         _check(self.view_reward in VAGS_VIEW_REWARDS,
                f"Vags.view_reward must be one of {VAGS_VIEW_REWARDS}, got {self.view_reward!r}")
         if self.threshold is not None:

@@ -181,7 +181,9 @@ def vags_params(networks, cfg: Config, threshold=None) -> dict:
             ("gate_estimate", getattr(networks, "gate_estimate", "grasp"),
              f"fit the table on the other estimate with {measure} --refit --bins K --estimate {cfg.vags.gate_estimate}"),
             ("close_score", getattr(networks, "gate_close_score", "q"),
-             f"measure a table for this one with {measure} --close-score {cfg.vags.close_score}")):
+             f"measure a table for this one with {measure} --close-score {cfg.vags.close_score}"),
+            ("direct_score", getattr(networks, "gate_direct_score", "q"),
+             f"measure a table for this one with {measure} --direct-score {cfg.vags.direct_score}")):
         now = getattr(cfg.vags, field)
         if cfg.vags.gate == "rate" and networks.gate_table is not None and not ablation and was != now:
             raise ValueError(f"the run's gate table (RUN/gate.json) was measured with vags.{field}={was!r}, and this "
@@ -189,6 +191,9 @@ def vags_params(networks, cfg: Config, threshold=None) -> dict:
     if cfg.vags.close_score == "success" and networks.success is None:
         raise ValueError(f"vags.close_score=success scores the grasps after a move with the success net, and the "
                          f"run's networks ({networks.source}) have none: evaluate with --set vags.close_score=q")
+    if cfg.vags.direct_score == "success" and networks.success is None:
+        raise ValueError(f"vags.direct_score=success plans the direct grasps with the success net, and the run's "
+                         f"networks ({networks.source}) have none: evaluate with --set vags.direct_score=q")
     if cfg.vags.local_planner == "ggcnn" and networks.ggcnn is None:
         raise ValueError("vags.local_planner=ggcnn needs a GG-CNN in the run (RUN/ggcnn): train one with "
                          "python train.py --stage ggcnn --out RUN")

@@ -15,7 +15,8 @@ state and the world grasps directly where the score exceeds the threshold:
 * ``"rate"``: score = minus the value of a move in p_direct's bin of the run's measured table
   (``rate_gate``; RUN/gate.json), threshold 0: move where a move raises the picks per hour.
 
-A direct grasp is GDNet's argmax (1 motion).  Otherwise the camera moves to the viewpoint
+A direct grasp is GDNet's argmax, or the argmax of the success net's half-turn mean over the
+global maps (``vags.direct_score="success"``) (1 motion).  Otherwise the camera moves to the viewpoint
 above VANet's argmax cell (or GDNet's: ``vags.viewpoint``; ``camera.viewpoint_pose``), takes the raw depth image there, and
 grasps with the close-view planner (``vags.local_planner``): ``"gdnet"``, the argmax on the
 global maps fused with the close view (``view_fusion``) among the cells the close view saw, of
@@ -35,6 +36,7 @@ from vags_jax import batching
 from vags_jax.perception import view_fusion
 from vags_jax.config import Config, Vags
 from vags_jax.config.sections import VAGS_CLOSE_SCORES as CLOSE_SCORES
+from vags_jax.config.sections import VAGS_DIRECT_SCORES as DIRECT_SCORES
 from vags_jax.config.sections import VAGS_GATE_ESTIMATES as GATE_ESTIMATES
 from vags_jax.ggcnn.planner import predict_grasp
 from vags_jax.policies import rate_gate
@@ -96,14 +98,15 @@ def _symmetric_rotation(q: jax.Array, grasp: jax.Array) -> jax.Array:
     return (grasp[:, 0] + n_rot // 2) % n_rot
 
 
-def half_turn_mean(q: jax.Array) -> jax.Array:
+def half_turn_mean(q: jax.Array, setting: str = "close_score") -> jax.Array:
     """q (B, R, H, W) -> (B, R, H, W) float32: at rotation r the mean of q at r and r + R/2 (a
     parallel-jaw grasp and the same grasp turned half a turn, which the network sees on
-    heightmaps rotated 180 degrees apart); averaging lowers the noise an argmax picks up."""
+    heightmaps rotated 180 degrees apart); averaging lowers the noise an argmax picks up.
+    setting: the ``vags`` field that asked for it, named in the error of an odd R."""
     n_rot = q.shape[1]
     if n_rot % 2:
         raise ValueError(f"the half-turn mean needs an even number of grasp rotations (the grasp turned half a "
-                         f"turn is one of them), got {n_rot}: use vags.close_score=q")
+                         f"turn is one of them), got {n_rot}: use vags.{setting}=q")
     q = q.astype(jnp.float32)
     return 0.5 * (q + jnp.roll(q, n_rot // 2, axis=1))
 
@@ -223,18 +226,33 @@ def _check_maps(q_grasp, q_view) -> None:
                          f"{tuple(q_view.shape)}")
 
 
+def direct_grasp(q_grasp: jax.Array, q_success: Optional[jax.Array], direct_score: str = "q"):
+    """The direct grasp from the global maps (``config.Vags.direct_score``) -> (grasp (B, 3)
+    int32 [rotation, row, col], GDNet's largest Q (B,) float32): GDNet's argmax ("q"), or the
+    argmax of q_success's ``half_turn_mean`` ("success"; q_success (B, R, H, W))."""
+    planned, q_max = greedy(q_grasp)
+    if direct_score == "q":
+        return planned, q_max
+    if direct_score != "success":
+        raise ValueError(f"unknown direct score {direct_score!r}: one of {DIRECT_SCORES}")
+    if q_success is None:
+        raise ValueError("vags.direct_score=success plans the direct grasp with the success net, and none was given")
+    return greedy(half_turn_mean(q_success, "direct_score"))[0], q_max
+
+
 def decide(q_grasp: jax.Array, q_view: jax.Array, threshold, q_success: Optional[jax.Array] = None,
            gate: str = "q", calibration: Optional[jax.Array] = None, view_estimate: str = "vanet",
            viewpoint: str = "vanet", gate_table: Optional[jax.Array] = None,
-           gate_estimate: str = "grasp") -> Decision:
+           gate_estimate: str = "grasp", direct_score: str = "q") -> Decision:
     """The decision on Q maps: q_grasp (B, R, H, W), q_view (B, H, W), threshold scalar (or
     (B,)), q_success (B, R, H, W), calibration (3,) and view_estimate for the "success" gate
-    (``gate_score``), gate_table (2, K) for the "rate" gate; p_direct is the success net's
-    ``gate_estimate`` of GDNet's argmax (``success_estimate``); grasp directly where the gate's
-    score exceeds ``threshold``.  The view is
-    VANet's argmax cell, or GDNet's with ``viewpoint="grasp"`` (``config.Vags.viewpoint``)."""
+    (``gate_score``), gate_table (2, K) for the "rate" gate; the direct grasp is
+    ``direct_grasp``'s (``direct_score``), p_direct the success net's ``gate_estimate`` of it
+    (``success_estimate``); grasp directly where the gate's score exceeds ``threshold``.  The
+    view is VANet's argmax cell, or the direct grasp's with ``viewpoint="grasp"``
+    (``config.Vags.viewpoint``)."""
     _check_maps(q_grasp, q_view)
-    grasp, q_max = greedy(q_grasp)
+    grasp, q_max = direct_grasp(q_grasp, q_success, direct_score)
     view, v_max = greedy(q_view)
     if viewpoint == "grasp":
         view = grasp[:, 1:]
@@ -344,11 +362,12 @@ class VagsNets:
 
     def q_maps(self, params: dict, color: jax.Array, height: jax.Array):
         """Global maps color (B, H, W, 3) / height (B, H, W) -> (GDNet's Q (B, R, H, W), VANet's Q
-        (B, H, W), the success net's (B, R, H, W) for the "success" and "rate" gates, else None)."""
+        (B, H, W), the success net's (B, R, H, W) for the "success" and "rate" gates and
+        ``vags.direct_score="success"``, else None)."""
         q_grasp = self.gdnet_q(params["gdnet"])(color, height)
         q_view = self.q_fn(self.vanet, params["vanet"])(color, height)
         q_success = None
-        if self.cfg.vags.gate in ("success", "rate"):
+        if self.cfg.vags.gate in ("success", "rate") or self.cfg.vags.direct_score == "success":
             q_success = self.q_fn(self.gdnet, params["success"])(color, height)
         return q_grasp, q_view, q_success
 
@@ -357,7 +376,7 @@ class VagsNets:
         q_grasp, q_view, q_success = self.q_maps(params, state.color, state.height)
         decision = decide(q_grasp, q_view, params["threshold"], q_success, self.cfg.vags.gate,
                           params.get("calibration"), self.cfg.vags.view_estimate, self.cfg.vags.viewpoint,
-                          params.get("gate_table"), self.cfg.vags.gate_estimate)
+                          params.get("gate_table"), self.cfg.vags.gate_estimate, self.cfg.vags.direct_score)
         return decision, q_grasp, q_view
 
     def plan(self, params: dict, key, env: VagsEnv, state: EnvState):
@@ -368,7 +387,8 @@ class VagsNets:
         return attempt, decision, close, q_grasp, q_view
 
 
-__all__ = ["Decision", "CloseView", "greedy", "value_at", "GATE_ESTIMATES", "CLOSE_SCORES", "half_turn_mean",
+__all__ = ["Decision", "CloseView", "greedy", "value_at", "GATE_ESTIMATES", "CLOSE_SCORES", "DIRECT_SCORES",
+           "half_turn_mean", "direct_grasp",
            "success_estimate", "success_estimates",
            "gate_score", "update_calibration", "initial_calibration",
            "gate_threshold", "decide",

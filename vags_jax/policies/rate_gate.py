@@ -335,6 +335,13 @@ def close_score_of(run_dir: str) -> str:
     return "q" if d is None else str(d.get("close_score", "q"))
 
 
+def direct_score_of(run_dir: str) -> str:
+    """The direct-grasp planner (``config.Vags.direct_score``) RUN/gate.json was measured with:
+    its "direct_score", "q" in tables from before it was recorded."""
+    d = read(run_dir)
+    return "q" if d is None else str(d.get("direct_score", "q"))
+
+
 def from_dict(d: dict) -> GateTable:
     """A gate.json's contents -> its ``GateTable`` (the table's fields; the meta is dropped)."""
     fields = {f.name for f in dataclasses.fields(GateTable)}

@@ -117,6 +117,9 @@ class FramePolicy:
         self.gdnet_only = no_viewpoint and not found
         self.ggcnn_camera = None
         if self.gdnet_only:
+            if cfg.vags.direct_score != "q":
+                raise ValueError(f"vags.direct_score={cfg.vags.direct_score} plans the direct grasps with the success "
+                                 f"net, and {run_dir} has stage 1 alone: drop that setting, or train stages 2-3")
             _, variables, s = load_gdnet(run_dir, step)
             self.params = {"gdnet": variables, "threshold": np.float32(-np.inf)}
             self.source = self.gdnet_source = self.close_source = rundir.networks_source("stage1", s)
@@ -143,7 +146,8 @@ class FramePolicy:
                                                  if "calibration" in parts else None),
                                     gate_table=rate_gate.load(run_dir, source), source=source,
                                     gate_estimate=rate_gate.estimate_of(run_dir),
-                                    gate_close_score=rate_gate.close_score_of(run_dir)), cfg)
+                                    gate_close_score=rate_gate.close_score_of(run_dir),
+                                    gate_direct_score=rate_gate.direct_score_of(run_dir)), cfg)
         if cfg.vags.local_planner == "ggcnn":
             self.ggcnn_camera = checkpoint.load_config(ggcnn_dir(run_dir)).camera
         networks = rundir.load_vags(run_dir, cfg, s)
@@ -285,7 +289,7 @@ def _global_program(params, depth, rgb, pose, *, cfg, cam, gdnet_only):
         q_grasp, q_view, q_success = nets.q_maps(params, color, height)
         d = decision.decide(q_grasp, q_view, params["threshold"], q_success, cfg.vags.gate, params.get("calibration"),
                             cfg.vags.view_estimate, cfg.vags.viewpoint, params.get("gate_table"),
-                            cfg.vags.gate_estimate)
+                            cfg.vags.gate_estimate, cfg.vags.direct_score)
         _, p_view = decision.greedy(q_view)
         out.update(grasp=d.grasp, q_max=d.q_max, score=d.score, direct=d.direct, view=d.view, p_view=p_view,
                    view_pose=camera.viewpoint_pose(d.view, height, cfg.workspace, cfg.camera))

@@ -16,7 +16,8 @@ so after training both branches run from the same state:
   ``vags.viewpoint``; the configured close-view planner) each run in their own copy of the
   physics, with the benchmark's modelled robot seconds (``MotionTimeModel``; a failed grasp
   also pays its return to the global pose); the grasp after a move is scored by
-  ``vags.close_score`` (``--close-score``), recorded in RUN/gate.json;
+  ``vags.close_score`` (``--close-score``) and the direct grasp planned by
+  ``vags.direct_score`` (``--direct-score``), both recorded in RUN/gate.json;
 * ``rate_gate.fit`` bins the success net's raw p_direct and writes the table to RUN/gate.json;
 * ``--follow moved`` (a diagnostic, written under ``--out``): the piles follow the grasps after
   a move instead, as in rounds that always move, to see how a branch's failures compound;
@@ -46,8 +47,8 @@ from vags_jax.config import GateTable, replace
 from vags_jax.env import VagsEnv, where_worlds
 from vags_jax.policies import rate_gate
 from vags_jax.policies.catalog import vags_params
-from vags_jax.policies.decision import (CLOSE_SCORES, GATE_ESTIMATES, VagsNets, close_view_grasp, decide,
-                                        success_estimates)
+from vags_jax.policies.decision import (CLOSE_SCORES, DIRECT_SCORES, GATE_ESTIMATES, VagsNets, close_view_grasp,
+                                        decide, greedy, success_estimates)
 from vags_jax.stages import checkpoint, rundir
 from vags_jax.stages.programs import Programs
 
@@ -58,13 +59,16 @@ FOLLOW = ("direct", "moved")  # the branch the piles follow from one measured st
 
 def make_collect(cfg, env: VagsEnv, nets: VagsNets):
     """-> jitted ``(params, key, state, follow_moved) -> (next state, per-world dict of (B,) arrays)``:
-    ``p_direct`` the success net's estimate of GDNet's argmax (``vags.gate_estimate``), and
+    ``p_direct`` the success net's estimate of the direct grasp (``vags.gate_estimate``; the
+    grasp is ``vags.direct_score``'s, ``decision.direct_grasp``), and
     every other estimate and GDNet's Q there (``decision.success_estimates``: ``p_<estimate>``,
     ``p_best``, ``q_direct``) for analysis; for each branch ("direct",
     "moved") its ``success``, ``lost`` (objects that left the table without a grasp),
     ``motions``, ``travel`` (m, camera move + approach + descend + lift) and ``back`` (m, the
     return to the global pose after a failure); ``objects`` (int32) on the table before the
-    attempt; ``live`` worlds with objects and no physics error.  The next state follows the
+    attempt; ``live`` worlds with objects and no physics error.  Under ``direct_score="success"``
+    a third branch, "gdnet", grasps at GDNet's argmax from the same state (the paper's direct
+    grasp, for comparing the two planners state by state).  The next state follows the
     direct grasp, or the grasp after the move where follow_moved (() bool, traced: one program
     for both) is set: the branch's own outcome, re-observed, so the program simulates each
     attempt once (two grasp loops, not three: a third of its compile and run time)."""
@@ -81,13 +85,18 @@ def make_collect(cfg, env: VagsEnv, nets: VagsNets):
     def step(params, key, state, follow_moved):
         k_img, k_obs = jax.random.split(key)
         q_grasp, q_view, q_success = nets.q_maps(params, state.color, state.height)
-        d = decide(q_grasp, q_view, 0.0, None, "q", viewpoint=cfg.vags.viewpoint)
+        d = decide(q_grasp, q_view, 0.0, q_success, "q", viewpoint=cfg.vags.viewpoint,
+                   direct_score=cfg.vags.direct_score)
         pos, yaw = env.grasp_pose(state, d.grasp[:, 1:], d.grasp[:, 0])
         direct = env.direct_attempt(pos, yaw)
         moved, _ = close_view_grasp(cfg, env, state, d.view, k_img, nets.close_q(params),
                                     params.get("ggcnn"), nets.ggcnn, nets.close_success_q(params))
         after_direct, rows_direct = branch("direct", state, direct)
         after_moved, rows_moved = branch("moved", state, moved)
+        if cfg.vags.direct_score != "q":  # the paper's direct grasp on the same state, for comparison
+            g = greedy(q_grasp)[0]
+            _, rows_gdnet = branch("gdnet", state, env.direct_attempt(*env.grasp_pose(state, g[:, 1:], g[:, 0])))
+            rows_direct = {**rows_direct, **rows_gdnet}
         estimates = success_estimates(q_success, q_grasp, d.grasp)
         out = {"p_direct": estimates[f"p_{cfg.vags.gate_estimate}"], **estimates,
                "objects": env.n_remaining(state), "live": (env.n_remaining(state) > 0) & ~state.sim.error,
@@ -104,16 +113,20 @@ def seconds(rows: dict, name: str, time_model: MotionTimeModel) -> np.ndarray:
                                     rows[f"{name}_travel"], rows[f"{name}_back"])
 
 
-def measure_config(run_cfg, estimate: Optional[str] = None, close_score: Optional[str] = None):
+def measure_config(run_cfg, estimate: Optional[str] = None, close_score: Optional[str] = None,
+                   direct_score: Optional[str] = None):
     """The config the table is measured under: the run's, with the gate's inputs as the "success"
     gate reads them (the raw success net and VANet's viewpoint), p_direct the success net's
-    ``estimate`` (None: the run's ``vags.gate_estimate``) and the grasps after a move scored by
-    ``close_score`` (None: the run's ``vags.close_score``)."""
+    ``estimate`` (None: the run's ``vags.gate_estimate``), the grasps after a move scored by
+    ``close_score`` and the direct grasps planned by ``direct_score`` (None: the run's
+    ``vags.close_score`` / ``vags.direct_score``)."""
     over = {"vags.gate": "success", "vags.view_estimate": "vanet"}
     if estimate is not None:
         over["vags.gate_estimate"] = estimate
     if close_score is not None:
         over["vags.close_score"] = close_score
+    if direct_score is not None:
+        over["vags.direct_score"] = direct_score
     return replace(run_cfg, **over)
 
 
@@ -156,7 +169,7 @@ def compile_collect(run_cfg, networks, programs=None) -> None:
 
 
 def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=print, programs=None,
-            count_lost=None, gdnet="stage3", follow="direct", estimate=None, close_score=None):
+            count_lost=None, gdnet="stage3", follow="direct", estimate=None, close_score=None, direct_score=None):
     """The gate table of a trained run (stage 3's networks, else stage 2's) -> (GateTable, meta,
     states): ``states`` the (N,) per-state arrays of the live states the table was fit on, with
     each state's ``world`` and ``attempt`` (its index along the pile).
@@ -167,7 +180,9 @@ def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=pri
     piles follow between attempts (``FOLLOW``; "moved" makes a diagnostic, not the gate's table);
     estimate: the success estimate the table bins (``config.Vags.gate_estimate``; None: the
     run's), recorded as meta["estimate"]; close_score: what scores the grasps after a move
-    (``config.Vags.close_score``; None: the run's), recorded as meta["close_score"]."""
+    (``config.Vags.close_score``; None: the run's), recorded as meta["close_score"];
+    direct_score: what plans the direct grasps (``config.Vags.direct_score``; None: the run's),
+    recorded as meta["direct_score"]."""
     if follow not in FOLLOW:
         raise ValueError(f"follow must be one of {FOLLOW}, got {follow!r}")
     run_cfg = checkpoint.load_config(run_dir)
@@ -175,7 +190,7 @@ def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=pri
     worlds, steps = worlds or g.worlds or GateTable().worlds, steps or g.steps
     bins, seed = bins or g.bins, g.seed if seed is None else seed
     count_lost = g.count_lost if count_lost is None else count_lost
-    cfg = measure_config(run_cfg, estimate, close_score)
+    cfg = measure_config(run_cfg, estimate, close_score, direct_score)
     networks = rundir.load_vags(run_dir, cfg, gdnet=gdnet)
     params = vags_params(networks, cfg)  # ValueError without a success net
     stage = cfg.stage3
@@ -195,6 +210,9 @@ def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=pri
     rows = {k: v[live] for k, v in rows.items()}
     tm = MotionTimeModel.from_config(cfg)
     rows["direct_seconds"], rows["moved_seconds"] = seconds(rows, "direct", tm), seconds(rows, "moved", tm)
+    gdnet_rows = ("gdnet_success", "gdnet_lost", "gdnet_seconds") if "gdnet_success" in rows else ()
+    if gdnet_rows:
+        rows["gdnet_seconds"] = seconds(rows, "gdnet", tm)
     table = rate_gate.fit(rows["p_direct"], rows["direct_success"], rows["direct_seconds"],
                           rows["moved_success"], rows["moved_seconds"], bins,
                           lost_direct=rows["direct_lost"], lost_moved=rows["moved_lost"], count_lost=count_lost)
@@ -202,13 +220,15 @@ def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=pri
             "worlds": worlds, "steps": steps, "seed": seed,
             "objects": [stage.min_objects, stage.max_objects], "live_states": int(live.sum()),
             "viewpoint": cfg.vags.viewpoint, "local_planner": cfg.vags.local_planner,
-            "close_region": cfg.vags.close_region, "close_score": cfg.vags.close_score, "follow": follow,
+            "close_region": cfg.vags.close_region, "close_score": cfg.vags.close_score,
+            "direct_score": cfg.vags.direct_score, "follow": follow,
             "estimate": cfg.vags.gate_estimate,
             "lost": rate_gate.paired_lost(table, rows["p_direct"], rows["direct_lost"], rows["moved_lost"]),
             "wall_s": round(time.time() - t0, 1), "device": str(jax.devices()[0])}
     states = {k: rows[k] for k in ("p_direct", "direct_success", "moved_success", "direct_lost", "moved_lost",
                                    "direct_seconds", "moved_seconds", "objects", "world", "attempt", "p_best",
-                                   "q_direct", *(f"p_{e}" for e in GATE_ESTIMATES))}
+                                   "q_direct", *(f"p_{e}" for e in GATE_ESTIMATES),
+                                   *gdnet_rows)}
     return table, meta, states
 
 
@@ -339,10 +359,14 @@ def main(argv=None) -> int:
     p.add_argument("--close-score", choices=CLOSE_SCORES, default=None,
                    help="what scores the grasps after a move (default: the run's vags.close_score); evaluate such "
                    "a table with --set vags.close_score=...")
+    p.add_argument("--direct-score", choices=DIRECT_SCORES, default=None,
+                   help="what plans the direct grasps (default: the run's vags.direct_score); evaluate such a table "
+                   "with --set vags.direct_score=...; with success the states also hold GDNet's direct grasp "
+                   "(gdnet_success, ...)")
     args = p.parse_args(argv)
     if args.refit and (args.bins is None or any(getattr(args, n) is not None for n in ("worlds", "steps", "seed",
                                                                                       "count_lost", "gdnet",
-                                                                                      "close_score"))
+                                                                                      "close_score", "direct_score"))
                        or args.follow != "direct"):
         print(f"{PROG}: --refit fits the measured states again: it takes --bins (and --out, --estimate) only",
               file=sys.stderr)
@@ -357,7 +381,7 @@ def main(argv=None) -> int:
             return 2
     kw = dict(log=lambda m: print(m, file=sys.stderr, flush=True), worlds=args.worlds, steps=args.steps,
               bins=args.bins, seed=args.seed, count_lost=args.count_lost, follow=args.follow, estimate=args.estimate,
-              close_score=args.close_score)
+              close_score=args.close_score, direct_score=args.direct_score)
     try:
         if args.refit:
             table, meta, states = refit(args.run, args.bins, args.estimate)

@@ -172,6 +172,7 @@ class VagsNetworks:
     close_gdnet_source: str = struct.field(pytree_node=False, default="")  # close_gdnet's; "" without one
     gate_estimate: str = struct.field(pytree_node=False, default="grasp")  # the estimate gate_table was fit on
     gate_close_score: str = struct.field(pytree_node=False, default="q")  # vags.close_score gate_table was measured with
+    gate_direct_score: str = struct.field(pytree_node=False, default="q")  # vags.direct_score gate_table was measured with
 
     @property
     def close_source(self) -> str:
@@ -269,7 +270,8 @@ def load_vags(run_dir: str, cfg: Optional[Config] = None, step: Optional[int] = 
                         calibration=cal, gate_table=table,
                         close_gdnet=close, source=source, gdnet_source=gd_source, close_gdnet_source=close_source,
                         gate_estimate=rate_gate.estimate_of(run_dir) if table is not None else "grasp",
-                        gate_close_score=rate_gate.close_score_of(run_dir) if table is not None else "q")
+                        gate_close_score=rate_gate.close_score_of(run_dir) if table is not None else "q",
+                        gate_direct_score=rate_gate.direct_score_of(run_dir) if table is not None else "q")
 
 
 def _restore_vags(run_dir: str, cfg: Config, name: str, step: Optional[int]):
