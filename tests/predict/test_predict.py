@@ -323,6 +323,9 @@ def test_no_viewpoint_on_a_stage1_run_is_gdnet_alone(run, policy, scene, cfg, tm
     assert out["grasp"] == direct["grasp"]
     with pytest.raises(ValueError, match="with --no-viewpoint the policy never moves the camera"):
         predict.FramePolicy(s1, no_viewpoint=True).decide(_frame(image, cfg), _frame(image, cfg))
+    # The success net's direct grasp needs stages 2-3: said before any network loads.
+    with pytest.raises(ValueError, match="has stage 1 alone: drop that setting"):
+        predict.FramePolicy(s1, {"vags.direct_score": "success"}, no_viewpoint=True)
 
 
 def test_the_command_line_on_files(run, scene, cfg, tmp_path, capsys):
