@@ -71,7 +71,8 @@ def make_collect(cfg, env: VagsEnv, nets: VagsNets):
     grasp, for comparing the two planners state by state).  The next state follows the
     direct grasp, or the grasp after the move where follow_moved (() bool, traced: one program
     for both) is set: the branch's own outcome, re-observed, so the program simulates each
-    attempt once (two grasp loops, not three: a third of its compile and run time)."""
+    attempt once (two grasp loops, not three: a third of its compile and run time; three with
+    the "gdnet" branch)."""
     start = jnp.asarray(cfg.camera.global_position, jnp.float32)
 
     def branch(name, state, attempt):
