@@ -1,9 +1,9 @@
 """Prints the tables of bench/RESULTS.md, "Viewpoints that pay, eighteenth look": two runs trained
 on the "edge" scene variant (``--config gpu-edge``; the first's logs in ``trained_run/``, its
-reports in ``seed<S>/``; the second's in ``second_trained_run/``, with VAGS under the "success"
-gate too), VAGS and ``--no-viewpoint`` on the edge scenes, seeds 11-13, beside the sixth run's
-networks (trained on the default scenes) on the same scenes (``sixth_run_networks/``, the
-seventeenth look).
+reports in ``trained_run/seed<S>/``, moved there from ``seed<S>/`` by the thirty-first look;
+the second's in ``second_trained_run/``, with VAGS under the "success" gate too), VAGS and
+``--no-viewpoint`` on the edge scenes, seeds 11-13, beside the sixth run's networks (trained
+on the default scenes) on the same scenes (``sixth_run_networks/``, the seventeenth look).
 Run from anywhere: python bench/results/viewpoints/edge/tables.py"""
 import os
 import sys
@@ -14,11 +14,12 @@ from report_tables import branches_table, differences, find, row, table  # noqa:
 
 SIXTH = os.path.join(HERE, "sixth_run_networks")
 SECOND = os.path.join(HERE, "second_trained_run")
+FIRST = os.path.join(HERE, "trained_run")
 
 
 def main():
     cases, gains, branches = [], [], []
-    runs = (("edge run 1", HERE, ("eval_vags",)),
+    runs = (("edge run 1", FIRST, ("eval_vags",)),
             ("edge run 2", SECOND, ("eval_vags", "eval_vags-success-gate")),
             ("sixth run (default scenes)", SIXTH, ("eval_vags",)))
     for nets, folder, names in runs:
