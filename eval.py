@@ -64,7 +64,7 @@ from vags_jax.benchmark import arguments  # noqa: E402
 from vags_jax.benchmark import compare as CMP  # noqa: E402
 from vags_jax.benchmark import metrics as M  # noqa: E402
 from vags_jax.benchmark import protocol as E  # noqa: E402
-from vags_jax.benchmark import reports, requests, sweep  # noqa: E402
+from vags_jax.benchmark import planners, reports, requests, sweep  # noqa: E402
 from vags_jax.benchmark.record_rounds import record_rounds  # noqa: E402
 from vags_jax.policies import rate_gate  # noqa: E402
 
@@ -154,6 +154,11 @@ def _evaluate(args, plan, t_main: float, argv) -> int:
         f" ({args.run}, {networks.source}{_gdnet_note(networks)})" if networks is not None else "")
     log(f"evaluating {name}{source}: groups {groups}, {rounds} rounds each, impl={cfg.sim.impl}, "
         f"devices={jax.devices()}")
+    if policy == "vags":
+        log(planners.describe(cfg, args.no_viewpoint))
+        note = planners.ablation_note(cfg) if args.no_viewpoint else None
+        if note:
+            log(note)
     t_inputs = time.perf_counter()
     ev = E.Evaluator(cfg)
     t_env = time.perf_counter()
@@ -161,6 +166,8 @@ def _evaluate(args, plan, t_main: float, argv) -> int:
     process = _startup_seconds(t_main, t_inputs, t_env, new_process=argv is None)
     log("ready in " + ", ".join(f"{k[:-2]} {v} s" for k, v in process.items() if v is not None))
     extra = {"run": args.run, "checkpoint_step": step, "process_s": process}
+    if policy == "vags":
+        extra["planners"] = planners.planners(cfg)
     if policy == "vags" and cfg.vags.gate == "rate" and networks is not None and not args.no_viewpoint:
         table = rate_gate.load_table(args.run, networks.source, networks.gdnet_source,
                                      networks.close_source, cfg.vags.max_motion_number, cfg.vags.cap_split)

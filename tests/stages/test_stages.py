@@ -477,9 +477,11 @@ def test_eval_vags_sweep_csv_and_record(runs, tmp_path):
     err = _eval_py(["--run", full, "--groups", "1,2", "--rounds", "1", "--out", out,
                     "--threshold-sweep=-1000:1000:2000", "--quantile-sweep", "0:1:1", "--record", rec])
     assert "evaluating vags (" in err and "stage3 step 4" in err
+    assert "direct grasps planned by GDNet's argmax (vags.direct_score='q'); grasps after a move by" in err
     with open(out) as f:
         report = json.load(f)
     assert report["policy"] == "vags" and report["networks"] == "stage3 step 4"
+    assert report["planners"] == {"direct": "q", "after_move": report["config"]["vags"]["close_score"]}
     assert report["gdnet"] == _gate_table(full)["gdnet"]  # the GDNet the run kept
     with open(str(tmp_path / "vags.csv")) as f:
         assert len(f.read().strip().splitlines()) == 1 + 2 + 1  # header, 2 groups, overall
