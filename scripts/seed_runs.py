@@ -148,7 +148,8 @@ def goal_checks(vags: dict, ablation: dict) -> list[tuple[str, bool, str]]:
     checks = [("success", v["success"] >= 0.85, f"success {100 * v['success']:.1f} %")]
     if has_6_10(vags) and has_6_10(ablation):
         (s_v, c_v), (s_a, c_a) = pooled(vags, 6, 10), pooled(ablation, 6, 10)
-        checks += [("margin", s_v - s_a >= 0.05, f"6-10 margin {100 * (s_v - s_a):+.1f}"),
+        # Rounded: 17/20 - 16/20 is 0.04999... in floating point, and +5.0 points meets the goal.
+        checks += [("margin", round(s_v - s_a, 9) >= 0.05, f"6-10 margin {100 * (s_v - s_a):+.1f}"),
                    ("clearing", c_v >= c_a, f"6-10 clearing {100 * (c_v - c_a):+.1f}")]
     checks += [("motions", v["motion_number"] < 1.35, f"motion number {v['motion_number']:.3f}"),
                ("one object", not v["viewpoint_1"] > 0.10, f"moves at 1 object {100 * v['viewpoint_1']:.1f} %")]

@@ -103,6 +103,11 @@ def test_goals_missed_names_each_goal_with_its_figure():
     assert seed_runs.goals_missed(worse, ablation, 12) == (
         "seed 12: success 84.0 %, 6-10 margin +0.0, 6-10 clearing -50.0, motion number 1.350, "
         "moves at 1 object 20.0 %")
+    # A margin of exactly +5 points meets the goal (17/20 - 16/20 is 0.04999... as floats).
+    five_v, five_a = _report(0.9, 17, 0.0), _report(0.8, 16, 0.0)
+    for r in (five_v, five_a):
+        r["groups_metrics"][1]["attempts"] = 20
+    assert seed_runs.goals_missed(five_v, five_a, 14) == ""
     # Reports without groups of 6-10 objects (a small benchmark) have no 6-10 margin to miss.
     small = _report(0.9, 8, 0.0)
     small["groups_metrics"] = small["groups_metrics"][:1]
