@@ -5,6 +5,8 @@ and tabulate VAGS against its ablation per training.
     python scripts/seed_runs.py --seeds 2,3,4,5 --out runs/seeds                 # the gpu preset, every local GPU
     python scripts/seed_runs.py --seeds 2,3 --set vags.train_close_score=success --out runs/tcs \\
         --eval ablation=--no-viewpoint --eval vags= --eval cap1.28="--set vags.max_motion_number=1.28"
+    python scripts/seed_runs.py --seeds 2,3 --out runs/planners --eval ablation=--no-viewpoint --eval vags= \
+        --eval same-planner="--no-viewpoint --set vags.direct_score=success"    # also the ablation planned by VAGS's score after a move
     python scripts/seed_runs.py --summary runs/seeds                             # the table of what is there
 
 One GPU trains its seeds one after another (``train.py --config C --set seed=S ...``), and after
