@@ -9,7 +9,8 @@ and the reports ``seed<S>/eval_vags.json`` and ``eval_vags-no-viewpoint.json``, 
 and ``success/`` (the same for the table measured with ``gate_measure --direct-score success``,
 whose states also hold GDNet's direct grasp).  Prints the benchmark rows, the 6-10 success
 differences, each table's bins, and the success tables' states grasped three ways (GDNet's
-argmax, the success net's argmax, after a move), paired.
+argmax, the success net's argmax, after a move), paired, and a move's gain by the attempt's
+index in its pile.
 """
 from __future__ import annotations
 
@@ -119,6 +120,23 @@ def paired_states(folders) -> None:
                   f"{md[0]:+.1f} +- {md[1]:.1f} |")
 
 
+def by_attempt(folders) -> None:
+    """A move's paired gain over the success net's direct grasp by the attempt's index in its
+    pile (the table's ``attempt``; 0: the first grasp at a fresh pile)."""
+    print("\nAfter a move - the success net's direct grasp (points), by the attempt's index in its pile:")
+    print("| training seed | attempt | states | after a move - success net |")
+    print("|---:|---:|---:|---:|")
+    for folder in folders:
+        s = dict(np.load(os.path.join(folder, "success", "gate_states.npz")))
+        gain = s["moved_success"].astype(np.float64) - s["direct_success"].astype(np.float64)
+        for k in np.unique(s["attempt"]):
+            sel = s["attempt"] == k
+            if sel.sum() < 2:
+                continue
+            mean, se = _mean_se(gain[sel])
+            print(f"| {training_seed(folder)} | {int(k)} | {int(sel.sum())} | {mean:+.1f} +- {se:.1f} |")
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("dirs", nargs="+", help="a training's folder with q/ and success/")
@@ -132,6 +150,7 @@ def main(argv=None) -> int:
           f"{'yes' if pays else 'no'}")
     tables(args.dirs)
     paired_states(args.dirs)
+    by_attempt(args.dirs)
     return 0
 
 

@@ -37,9 +37,10 @@ def _folder(root, six_to_ten):
             with open(os.path.join(d, "seed11", name), "w") as f:
                 json.dump(_report(g6, 0.3 if name == "eval_vags.json" and planner == "q" else 0.0), f)
     # Four states: GDNet's argmax succeeds on 1, the success net's on 3, after a move on 4.
+    # Attempts 0, 0, 1, 1: the move gains 0 and 0 at attempt 0, 0 and +1 at attempt 1.
     np.savez(os.path.join(root, "success", "gate_states.npz"), gdnet_success=np.array([1, 0, 0, 0]),
              direct_success=np.array([1, 1, 1, 0]), moved_success=np.array([1, 1, 1, 1]),
-             objects=np.array([1, 6, 7, 8]), p_direct=np.array([0.9, 0.5, 0.6, 0.2]))
+             objects=np.array([1, 6, 7, 8]), p_direct=np.array([0.9, 0.5, 0.6, 0.2]), attempt=np.array([0, 0, 1, 1]))
 
 
 def test_the_differences_the_verdict_and_the_paired_states(tmp_path, capsys):
@@ -53,6 +54,7 @@ def test_the_differences_the_verdict_and_the_paired_states(tmp_path, capsys):
     # 6-10 states (3): GDNet 0 %, the success net 66.7 %, after a move 100 %.
     assert "| 7 | 6-10 objects | 3 | 0.0 | 66.7 | 100.0 |" in out
     assert "moves in bins [0] of 2" in out
+    assert "| 7 | 0 | 2 | +0.0 +- 0.0 |" in out and "| 7 | 1 | 2 | +50.0 +- 50.0 |" in out
 
 
 def test_a_margin_of_five_with_one_planner_is_a_yes(tmp_path, capsys):
