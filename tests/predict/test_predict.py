@@ -28,7 +28,8 @@ from vags_jax.env import EnvState, VagsEnv, select_attempt
 from vags_jax.nets import make_qnet, variable_shapes
 from vags_jax.nets.ggcnn import GGCNN
 from vags_jax.perception import camera, heightmap
-from vags_jax.policies import catalog
+from vags_jax.policies import catalog, decision
+from vags_jax.policies.decision import VagsNets
 from vags_jax.predict import frames
 from vags_jax.stages import checkpoint, rundir
 from vags_jax.stages import ggcnn as ggcnn_stage
@@ -304,6 +305,31 @@ def test_success_scored_close_grasp_equals_the_eval_policy(run, scene, env, cfg)
     assert g["planner"] == "gdnet" and g["view"] == "close" and "q" not in g and isinstance(g["p_success"], float)
     np.testing.assert_array_equal(np.float32(g["position"]), attempt.position[0])
     assert np.float32(g["yaw"]) == attempt.yaw[0]
+    reach = 0.025 + cfg.workspace.pixel_size
+    assert abs(g["position"][0] - TALL_XY[0]) > reach or abs(g["position"][1] - TALL_XY[1]) > reach, g
+
+
+def test_success_planned_direct_grasp_equals_the_eval_policy(run, scene, env, cfg):
+    """vags.direct_score=success: the direct grasp is the argmax of the success net's half-turn
+    mean on the global maps, as the eval policy's, and gives that value, not GDNet's Q.  The
+    success net's last kernel is negated, so that its grasp leaves the tall block GDNet grasps."""
+    state, image = scene
+    over = {"vags.direct_score": "success"}
+    scfg = C.replace(cfg, **over)
+    pol = predict.FramePolicy(run, over, threshold=-1e6)
+    flip = lambda path, x: -x if jax.tree_util.keystr(path).endswith("['head']['conv1']['kernel']") else x  # noqa: E731
+    pol.params = {**pol.params, "success": jax.tree_util.tree_map_with_path(flip, pol.params["success"])}
+    g = pol.decide(_frame(image, cfg))["grasp"]
+    params = {**catalog.vags_params(rundir.load_vags(run, scfg), scfg, -1e6), "success": pol.params["success"]}
+    attempt = jax.jit(lambda p, k, s: catalog.vags_plan(scfg)(p, k, env, s))(params, PLAN_KEY, state)
+    assert g["view"] == "global" and "q" not in g and int(attempt.motions[0]) == 1
+    np.testing.assert_array_equal(np.float32(g["position"]), attempt.position[0])
+    assert np.float32(g["yaw"]) == attempt.yaw[0]
+    q_success = VagsNets(scfg).q_maps(pol.params, state.color, state.height)[2]
+    action = jnp.asarray([[g["rotation"], *g["pixel"]]], jnp.int32)
+    want = decision.success_estimate(q_success, action, "symmetric")[0]
+    assert g["p_success"] == pytest.approx(float(want), rel=1e-5, abs=1e-6)
+    assert g["p_success"] == pytest.approx(float(jnp.max(decision.half_turn_mean(q_success))), rel=1e-5, abs=1e-6)
     reach = 0.025 + cfg.workspace.pixel_size
     assert abs(g["position"][0] - TALL_XY[0]) > reach or abs(g["position"][1] - TALL_XY[1]) > reach, g
 

@@ -186,7 +186,8 @@ class FramePolicy:
         out = {"decision": "grasp" if bool(g["direct"][0]) else "move", "run": self.run_dir, "networks": self.source,
                "gdnet": self.gdnet_source, "close_gdnet": self.close_source}
         out["gate"], out["reason"] = self._gate(g)
-        direct = self._heightmap_grasp(g["grasp"][0], g["position"][0], g["yaw"][0], g["q_max"][0], "global")
+        direct = self._heightmap_grasp(g["grasp"][0], g["position"][0], g["yaw"][0], g["direct_value"][0], "global",
+                                       "p_success" if self.cfg.vags.direct_score == "success" else "q")
         if out["decision"] == "grasp":
             out["grasp"] = direct
             if close is not None:
@@ -245,7 +246,7 @@ class FramePolicy:
 
     def _heightmap_grasp(self, action, position, yaw, score, view: str, scored: str = "q") -> dict:
         """scored: the key of the value the grasp maximized ("q": GDNet's Q; "p_success": the
-        success net's half-turn mean, ``vags.close_score="success"``)."""
+        success net's half-turn mean, ``vags.close_score`` / ``vags.direct_score`` "success")."""
         return {"view": view, "planner": "gdnet", "position": _json_floats(position),
                 "yaw": _json_float(yaw), "gripper_width": self.cfg.grasp.finger_stroke, scored: _json_float(score),
                 "pixel": [int(action[1]), int(action[2])], "rotation": int(action[0])}
@@ -277,14 +278,14 @@ def _nets(cfg):
 @functools.partial(jax.jit, static_argnames=("cfg", "cam", "gdnet_only"))
 def _global_program(params, depth, rgb, pose, *, cfg, cam, gdnet_only):
     """One global frame (depth (h, w), rgb (h, w, 3), pose (4, 4)) -> the decision's arrays
-    (leading axis 1): the heightmaps, GDNet's argmax, the gate's figures, the grasp's pose,
-    the viewpoint's pose."""
+    (leading axis 1): the heightmaps, the direct grasp and the value it maximized
+    (``direct_value``), the gate's figures, the grasp's pose, the viewpoint's pose."""
     nets = _nets(cfg)
     color, height = heightmap.heightmaps(depth[None], rgb[None], pose[None], cam, cfg.workspace)
     out = {"color": color, "height": height}
     if gdnet_only:
         grasp, q_max = decision.greedy(nets.gdnet_q(params["gdnet"])(color, height))
-        out.update(grasp=grasp, q_max=q_max, score=q_max, direct=jnp.ones((1,), bool))
+        out.update(grasp=grasp, q_max=q_max, score=q_max, direct=jnp.ones((1,), bool), direct_value=q_max)
     else:
         q_grasp, q_view, q_success = nets.q_maps(params, color, height)
         d = decision.decide(q_grasp, q_view, params["threshold"], q_success, cfg.vags.gate, params.get("calibration"),
@@ -295,6 +296,9 @@ def _global_program(params, depth, rgb, pose, *, cfg, cam, gdnet_only):
                    view_pose=camera.viewpoint_pose(d.view, height, cfg.workspace, cfg.camera))
         if q_success is not None:
             out["p_direct"] = decision.success_estimate(q_success, d.grasp, cfg.vags.gate_estimate)
+        # The value the direct grasp maximized: GDNet's Q, or the success net's half-turn mean.
+        out["direct_value"] = (decision.success_estimate(q_success, d.grasp, "symmetric")
+                               if cfg.vags.direct_score == "success" else d.q_max)
     out["position"], out["yaw"] = grasp_pose(cfg, height, out["grasp"][:, 1:], out["grasp"][:, 0])
     return out
 
