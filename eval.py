@@ -180,7 +180,8 @@ def _evaluate(args, plan, t_main: float, argv) -> int:
             log(f"rate gate: moves in bins {g['moving_bins']} of {g['bins']} (lowest p_direct, the success net's "
                 f"{g['estimate']!r} estimate, first; direct grasps planned by {g['direct_score']!r}, grasps after a move "
                 f"scored by {g['close_score']!r}); its table "
-                f"predicts a motion number of {g['motion_number']:.3f} and {100 * g['success']:.1f} % success"
+                f"predicts a motion number of {rate_gate.motion_number_text(g['motion_number'])} and "
+                f"{100 * g['success']:.1f} % success"
                 + (f" (vags.max_motion_number={g['max_motion_number']:g})" if g["max_motion_number"] else ""))
     overall = {}
     for seed in plan.seeds:  # one Evaluator: every seed reuses the programs the first one compiled

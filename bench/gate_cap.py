@@ -76,7 +76,8 @@ def markdown(table_rows, caps) -> str:
         cells = [r["path"]]
         for cap in (0.0, *caps):
             s = r[cap]
-            cells += [str(s["moving_bins"]), f"{s['motion_number']:.3f}", f"{100 * s['success']:.1f}"]
+            cells += [str(s["moving_bins"]), rate_gate.motion_number_text(s["motion_number"]),
+                      f"{100 * s['success']:.1f}"]
             if extra:
                 cells += [f"{100 * s[k]:.1f}" if k in s else "" for k in ("success_6plus", "moved_at_1")]
         lines.append("| " + " | ".join(cells) + " |")

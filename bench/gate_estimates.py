@@ -90,7 +90,7 @@ def print_report(rep: dict) -> None:
         lo = f["lowest_eighth"]
         print(f"| {c} | {f['auroc_direct']:.3f} | {f['auroc_moved']:.3f} | {100 * lo['direct']:.1f} | "
               f"{100 * lo['moved']:.1f} | {100 * lo['gain_per_state']:+.2f} | {f['picks_per_hour']:.0f} | "
-              f"{f['moving_bins']} | {f['motion_number']:.3f} | {100 * f['success']:.1f} |")
+              f"{f['moving_bins']} | {rate_gate.motion_number_text(f['motion_number'])} | {100 * f['success']:.1f} |")
     print(f"pick: {rep['pick']} (the vags.gate_estimate whose table predicts the most picks per hour)")
 
 

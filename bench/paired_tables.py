@@ -150,7 +150,8 @@ def print_report(rep: dict) -> None:
     print("|---|---|---:|---:|---|---:|---:|")
     for name, t in zip(rep["names"], rep["tables"]):
         print(f"| {name} | {t.get('close_score', '-')} | {t['states']} | {t['picks_per_hour']:.0f} | "
-              f"{t['moving_bins']} of {t['bins']} | {t['motion_number']:.3f} | {100 * t['success']:.1f} |")
+              f"{t['moving_bins']} of {t['bins']} | {rate_gate.motion_number_text(t['motion_number'])} | "
+              f"{100 * t['success']:.1f} |")
 
 
 def main(argv=None) -> int:

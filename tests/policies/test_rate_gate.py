@@ -166,6 +166,20 @@ def test_the_motion_cap_drops_the_moves_that_add_least_success(tmp_path):
     s = rate_gate.moves_summary(rate_gate.load_table(str(tmp_path), max_motion_number=2.3), 2.3)
     assert s == {"moving_bins": [0, 2], "bins": 3, "motion_number": round(50 / 24, 4),
                  "success": round(24 / 30, 4), "max_motion_number": 2.3}
+    assert rate_gate.motion_number_text(s["motion_number"]) == "2.083"
+
+
+def test_a_table_where_nothing_succeeds_predicts_no_motion_number():
+    """A barely trained run's table (no grasp succeeded in either branch) has no motion number:
+    inf for the cap (every move dropped), None in the summary eval.py writes as JSON, "-" in its
+    log, where it printed 8e12 before."""
+    t = rate_gate.GateTable(edges=(0.5,), states=(4, 4), direct=(0.0, 0.0), moved=(0.0, 0.0),
+                            extra_seconds=(0.5, 0.2), rate=0.0, move_value=(0.1, -0.1))
+    assert rate_gate.motion_number(t, [False, False]) == float("inf")
+    assert rate_gate.capped(t, 1.5).move_value == pytest.approx((-0.1, -0.1))
+    s = rate_gate.moves_summary(t)
+    assert s["motion_number"] is None and s["success"] == 0.0 and s["moving_bins"] == [0]
+    assert rate_gate.motion_number_text(s["motion_number"]) == "-"
 
 
 @pytest.mark.parametrize("bad", [0.5, -1.0, 11.0, float("nan")])

@@ -112,10 +112,16 @@ def fit(p, s_d, t_d, s_m, t_m, n_bins: int, lost_direct=None, lost_moved=None, c
 
 def motion_number(table: GateTable, moves) -> float:
     """The motion number the table predicts when the bins ``moves`` (K,) bool move: motions per
-    grasped object over its states (a direct grasp one motion, a move and a grasp two)."""
+    grasped object over its states (a direct grasp one motion, a move and a grasp two); inf
+    where no state the table plays that way succeeded."""
     n, moves = np.asarray(table.states, np.float64), np.asarray(moves, bool)
-    success = np.where(moves, table.moved, table.direct)
-    return float(np.sum(n * (1.0 + moves)) / max(np.sum(n * success), 1e-12))
+    grasped = float(np.sum(n * np.where(moves, table.moved, table.direct)))
+    return float(np.sum(n * (1.0 + moves)) / grasped) if grasped > 0 else float("inf")
+
+
+def motion_number_text(value: Optional[float]) -> str:
+    """``moves_summary``'s motion number for a table: "-" where none is defined (no success)."""
+    return "-" if value is None else f"{value:.3f}"
 
 
 def capped(table: GateTable, max_motion_number: float) -> GateTable:
@@ -239,8 +245,9 @@ def moves_summary(table: GateTable, max_motion_number: float = 0.0) -> dict:
     moves = np.asarray(table.move_value) > 0
     n = np.asarray(table.states, np.float64)
     success = float(np.sum(n * np.where(moves, table.moved, table.direct)) / np.sum(n))
+    mn = motion_number(table, moves)  # None where no state succeeded: JSON has no inf
     return {"moving_bins": [int(k) for k in np.flatnonzero(moves)], "bins": int(moves.size),
-            "motion_number": round(motion_number(table, moves), 4), "success": round(success, 4),
+            "motion_number": round(mn, 4) if np.isfinite(mn) else None, "success": round(success, 4),
             "max_motion_number": float(max_motion_number)}
 
 
