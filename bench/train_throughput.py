@@ -1,10 +1,11 @@
 #!/usr/bin/env python3
-"""Stage-1 training throughput: grasp attempts/s while training (collect + learn), where one
+"""Training throughput: grasp attempts/s while training (collect + learn), where one stage-1
 iteration's time goes, and the DQN update's model FLOP utilisation in bf16.
 
     python bench/train_throughput.py --config gpu --out runs/throughput.json
     python bench/train_throughput.py --config gpu --set stage1.n_worlds=1024 stage1.updates_per_iteration=32
     python bench/train_throughput.py --config tiny --iterations 4 --trunks small     # CPU smoke run
+    python bench/train_throughput.py --run runs/vags --stage stage3 --trunks small   # stage 3, from a trained run
 
 1. Whole iterations: ``Stage1.run`` (one jitted scan, as train.py runs it) on a replay already
    holding ``learning_starts`` transitions; attempts/s = grasp attempts / wall clock.
@@ -21,6 +22,8 @@ iteration's time goes, and the DQN update's model FLOP utilisation in bf16.
    ``--trunks`` (DenseNet-121 at the config's heightmap size and rotations); and the update's
    parts: the target pass (its rotated inputs, trunks + head, maps back to the heightmap) and the
    online network's forward + backward pass, each jitted alone.
+``--stage stage2`` / ``stage3`` (with ``--run``) replaces 1 and 2 by that stage's attempts/s over
+whole iterations, from the run's saved networks (``vags_stage_iterations``), then measures 3.
 ``--updates-only`` measures 3 alone: no environment is built, so it needs neither MuJoCo nor the
 physics' compile time (for DenseNet-121 on a machine whose time is short).
 Writes every figure to --out as JSON.  Timings mean something on a GPU only (bench/RESULTS.md).
@@ -36,6 +39,7 @@ import os
 import sys
 import tempfile
 import time
+from typing import Optional
 
 import jax
 import jax.numpy as jnp
@@ -231,6 +235,43 @@ def whole_iterations(cfg, iterations: int, reps: int) -> dict:
             "iteration_s": it_s, "first_chunk_s": first_s, "phases": ph}
 
 
+def vags_stage_iterations(cfg, run_dir: str, name: str, iterations: int, programs=None,
+                          chunk: Optional[int] = None) -> dict:
+    """Stage 2's or 3's grasp attempts/s over whole iterations (collect + learn), run in chunks of
+    the length ``train.py`` uses, from the networks RUN's earlier stages saved (as ``train.py
+    --stage`` restores them: untrained networks would not grasp, and the resets that grasps
+    bring would be missing from the timing).  Replay is filled to the stage's
+    ``learning_starts`` first; then at least ``iterations`` iterations are timed.  No phase
+    breakdown.  ``programs``: a ``stages.programs.Programs`` whose compiled stage to reuse;
+    ``chunk``: iterations per chunk (``train.py --chunk``; default: its default)."""
+    from vags_jax.stages import driver, pipeline, rundir  # the environment's packages (MuJoCo) load only here
+    from vags_jax.stages.programs import Programs
+
+    sc = getattr(cfg, name)
+    stage = (programs or Programs()).stage(name, cfg)
+    fns = pipeline.stage_fns(name, stage)
+    state = fns.init(rundir.stage_key(cfg, name), driver.handover_from_disk(run_dir, cfg, name, pipeline.Handover()))
+    chunk = chunk or pipeline.default_chunk(rundir.total(cfg, name))
+    chunks = lambda n: -(-n // chunk)  # noqa: E731  (whole chunks covering n iterations)
+    t = time.perf_counter()
+    state, _ = pipeline.run_stage(fns, state, chunks(-(-sc.learning_starts // sc.n_worlds) + 1) * chunk, chunk)
+    jax.block_until_ready(state)
+    first_s = time.perf_counter() - t
+    a0, n = int(state.attempts), chunks(iterations) * chunk
+    t = time.perf_counter()
+    state, metrics = pipeline.run_stage(fns, state, n, chunk)
+    jax.block_until_ready(state)
+    wall = time.perf_counter() - t
+    attempts = int(state.attempts) - a0
+    updates = float(sum(np.sum(m["updates"]) for m in metrics))
+    print(f"{name}: {attempts / wall:,.0f} grasp attempts/s ({attempts} attempts, {updates:.0f} updates of its "
+          f"networks in {wall:.2f} s over {n} iterations in chunks of {chunk}; {wall / n * 1e3:.1f} ms per "
+          f"iteration; filling replay, compiling included, {first_s:.1f} s)", flush=True)
+    return {"stage": name, "run": run_dir, "iterations_timed": n, "chunk": chunk, "wall_s": wall,
+            "attempts": attempts, "updates": updates, "attempts_per_s": attempts / wall, "iteration_s": wall / n,
+            "first_chunks_s": first_s}
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--config", default="gpu")
@@ -245,19 +286,34 @@ def main(argv=None) -> int:
                    help="only the matmul peak and the update MFU of each trunk (no environment, no MuJoCo)")
     p.add_argument("--no-parts", action="store_true",
                    help="the update MFU without its parts and XLA's FLOP count (one compile per trunk)")
+    p.add_argument("--stage", default="stage1", choices=("stage1", "stage2", "stage3"),
+                   help="stage2 / stage3: that stage's whole iterations from --run's saved networks (no phases)")
+    p.add_argument("--run", default=None, help="a run directory (its config.json and the earlier stages' "
+                   "checkpoints): needed for --stage stage2 / stage3, which start from its networks")
     args = p.parse_args(argv)
+    if args.stage != "stage1" and (args.run is None or args.updates_only):
+        p.error(f"--stage {args.stage} times that stage from a trained run's networks: give --run RUN "
+                f"(a run whose earlier stages are trained), without --updates-only")
     compile_cache.enable(args.cache_dir)
-    cfg = C.replace(C.preset(args.config), **C.parse_overrides(args.set))
-    s1 = cfg.stage1
+    if args.run is not None:
+        from vags_jax.stages import checkpoint
+
+        cfg = C.replace(checkpoint.load_config(args.run), **C.parse_overrides(args.set))
+    else:
+        cfg = C.replace(C.preset(args.config), **C.parse_overrides(args.set))
+    s1 = getattr(cfg, args.stage)  # the timed stage's worlds and updates
     on_gpu = jax.devices()[0].platform == "gpu"
-    print(f"device: {jax.devices()[0].device_kind}; config {args.config} {' '.join(args.set)}; "
+    source = args.run if args.run is not None else args.config
+    print(f"device: {jax.devices()[0].device_kind}; config {source} {' '.join(args.set)}; {args.stage}: "
           f"{s1.n_worlds} worlds, {s1.updates_per_iteration} updates of batch {cfg.dqn.batch_size} per iteration",
           flush=True)
 
-    result = {"device": jax.devices()[0].device_kind, "config": args.config, "overrides": args.set,
+    result = {"device": jax.devices()[0].device_kind, "config": source, "overrides": args.set,
               "n_worlds": s1.n_worlds, "updates_per_iteration": s1.updates_per_iteration,
               "batch_size": cfg.dqn.batch_size, "updates_only": args.updates_only}
-    if not args.updates_only:
+    if args.stage != "stage1":
+        result.update(vags_stage_iterations(cfg, args.run, args.stage, args.iterations))
+    elif not args.updates_only:
         result.update(whole_iterations(cfg, args.iterations, args.reps))
     peak = matmul_peak(args.matmul or (8192 if on_gpu else 1024))
     print(f"bf16 matmul peak measured: {peak / 1e12:.1f} TFLOP/s", flush=True)

@@ -310,6 +310,26 @@ def test_train_close_score_success_plans_the_grasp_after_a_move_by_the_success_n
                                      env).close_success_q(su2)
 
 
+def test_train_throughput_times_stage_3_from_the_runs_networks(runs, programs):
+    """bench/train_throughput.py --stage stage3: stage 3's whole iterations from the run's saved
+    networks, in the pipeline's chunks, on the stage program the pipeline compiled."""
+    sys.path.insert(0, os.path.join(ROOT, "bench"))
+    import train_throughput
+
+    from vags_jax.compile_cache import CompileClock
+
+    full, _ = runs
+    cfg = checkpoint.load_config(full)
+    with CompileClock() as clock:
+        r = train_throughput.vags_stage_iterations(cfg, full, "stage3", 2, programs, chunk=2)
+    assert r["stage"] == "stage3" and r["iterations_timed"] == 2 and r["chunk"] == 2
+    assert r["attempts"] > 0 and r["updates"] > 0 and r["attempts_per_s"] == pytest.approx(r["attempts"] / r["wall_s"])
+    # The chunk program is the pipeline's: compiling here is the few small programs of restoring
+    # the networks, a fraction of the seconds the pipeline's stages 2-3 compiled for.
+    stage2_compile = next(r for r in _timings(full) if r["stage"] == "stage2")["compile"]["seconds"]
+    assert clock.seconds < 0.2 * stage2_compile, (clock.as_dict(), stage2_compile)
+
+
 def test_stages_2_and_3_run_one_compiled_program(runs):
     """Stages 2 and 3 of one config differ only in traced switches (``StageFlags``): built by
     one ``Programs``, stage 3 runs stage 2's jitted chunk, and the pipeline's stage 3 compiled
