@@ -312,7 +312,10 @@ def main(argv=None) -> int:
               "n_worlds": s1.n_worlds, "updates_per_iteration": s1.updates_per_iteration,
               "batch_size": cfg.dqn.batch_size, "updates_only": args.updates_only}
     if args.stage != "stage1":
-        result.update(vags_stage_iterations(cfg, args.run, args.stage, args.iterations))
+        try:
+            result.update(vags_stage_iterations(cfg, args.run, args.stage, args.iterations))
+        except ValueError as e:  # CheckpointError: the run lacks the stages this one starts from
+            p.error(str(e))
     elif not args.updates_only:
         result.update(whole_iterations(cfg, args.iterations, args.reps))
     peak = matmul_peak(args.matmul or (8192 if on_gpu else 1024))

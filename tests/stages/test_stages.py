@@ -326,7 +326,7 @@ def test_train_throughput_times_stage_3_from_the_runs_networks(runs, programs):
     assert r["attempts"] > 0 and r["updates"] > 0 and r["attempts_per_s"] == pytest.approx(r["attempts"] / r["wall_s"])
     # The chunk program is the pipeline's: compiling here is the few small programs of restoring
     # the networks, a fraction of the seconds the pipeline's stages 2-3 compiled for.
-    stage2_compile = next(r for r in _timings(full) if r["stage"] == "stage2")["compile"]["seconds"]
+    stage2_compile = next(t for t in _timings(full) if t["stage"] == "stage2")["compile"]["seconds"]
     assert clock.seconds < 0.2 * stage2_compile, (clock.as_dict(), stage2_compile)
 
 
