@@ -76,8 +76,12 @@ def flops_of(jitted, *args) -> float:
 
 
 def random_batch(cfg, key, b: int):
-    """A replay sample of ``b`` random transitions of this config's heightmap size."""
+    """A replay sample of ``b`` random transitions of this config's heightmap size (in stage 1's
+    replay type: with ``stage1.bootstrap = "actor"`` values instead of next states)."""
     t, _ = random_transitions(cfg, key, b)
+    if cfg.stage1.bootstrap == "actor":
+        t = replay.make_valued_transition(t.color, t.height, t.action, t.reward, t.done).replace(
+            next_value=jax.random.uniform(key, (b,)))
     buffer = replay.add(replay.init(b, jax.tree.map(lambda x: x[0], t)), t)
     _, batch, w = replay.sample(buffer, key, cfg.dqn.batch_size, cfg.replay.alpha, cfg.replay.beta)
     return batch, w
@@ -88,7 +92,7 @@ def update_mfu(cfg, peak: float, n_updates: int, reps: int = 3, parts: bool = Tr
     and where the update's time goes (each part jitted alone on the same arrays).
 
     Model FLOPs (``flop_count``): the target network's pass over every rotation of the next
-    states (twice with ``double_q``; none with gamma 0) plus 3 x the online network's forward
+    states (twice with ``double_q``; none with gamma 0 or ``stage1.bootstrap = "actor"``) plus 3 x the online network's forward
     pass at the executed rotations (train mode).  XLA's own count is kept beside it
     (``xla_flops``): on an H100 it counted 1-3 % of the model FLOPs (bench/RESULTS.md).
     ``parts=False`` skips the parts and XLA's count, each a compile of its own (DenseNet-121's
@@ -100,7 +104,7 @@ def update_mfu(cfg, peak: float, n_updates: int, reps: int = 3, parts: bool = Tr
         v, c, h, train, rotations=rotations, mutable=mutable)
     variables = initial_variables(jax.random.PRNGKey(0), net, cfg.net, H, H)
     learner = dqn.create_train_state(variables, cfg.dqn)
-    update = dqn.make_update_step(apply, cfg.dqn, executed_rotation_only=True)
+    update = dqn.make_update_step(apply, cfg.dqn, executed_rotation_only=True, n_rotations=cfg.net.n_rotations)
     batch, w = random_batch(cfg, jax.random.PRNGKey(1), max(cfg.dqn.batch_size, 8))
     many = jax.jit(lambda ts: jax.lax.scan(lambda s, _: (update(s, batch, w)[0], None), ts, None,
                                            length=n_updates)[0])
@@ -111,11 +115,13 @@ def update_mfu(cfg, peak: float, n_updates: int, reps: int = 3, parts: bool = Tr
     rot = batch.action[:, :1]
     if cfg.dqn.symmetric_grasp_label:
         rot = jnp.concatenate([rot, (rot + cfg.net.n_rotations // 2) % cfg.net.n_rotations], 1)
-    next_h = batch.next_height.astype(jnp.float32)
-    target = lambda v: apply(v, batch.next_color, next_h, False)  # noqa: E731  (B, R, H, W)
+    has_next = hasattr(batch, "next_height")  # "actor": no next states; the parts time the same pass
+    next_c, next_h = (batch.next_color, batch.next_height) if has_next else (batch.color, batch.height)
+    next_h = next_h.astype(jnp.float32)
+    target = lambda v: apply(v, next_c, next_h, False)  # noqa: E731  (B, R, H, W)
     online = lambda v: apply(v, batch.color, batch.height.astype(jnp.float32), True,  # noqa: E731
                              mutable=["batch_stats"], rotations=rot)[0]
-    passes = 0 if cfg.dqn.gamma == 0 else (2 if cfg.dqn.double_q else 1)
+    passes = 0 if cfg.dqn.gamma == 0 or not has_next else (2 if cfg.dqn.double_q else 1)
     f_target, f_online = forward_flops(target, variables), forward_flops(online, variables)
     flops = passes * f_target + 3 * f_online
     result = {"trunk": cfg.net.trunk, "dtype": cfg.net.dtype, "batch_size": cfg.dqn.batch_size,
@@ -133,7 +139,7 @@ def update_mfu(cfg, peak: float, n_updates: int, reps: int = 3, parts: bool = Tr
     p = padded_size(H, geo.stride)
     theta = rotation_angles(jnp.broadcast_to(jnp.arange(R), (b, R)), R)
     rotate_in = jax.jit(lambda c, h: rotated_inputs(pad_inputs(c, h, p), theta))
-    x = rotate_in(batch.next_color, next_h)
+    x = rotate_in(next_c, next_h)
     trunks = jax.jit(lambda v, x: net.apply(v, x, False, method=net.coarse_q))
     coarse = trunks(variables, x)
     back = jax.jit(lambda c: coarse_to_heightmap(c, theta.reshape(-1), p, H, H, geo))
@@ -141,7 +147,7 @@ def update_mfu(cfg, peak: float, n_updates: int, reps: int = 3, parts: bool = Tr
         online({"params": prm, "batch_stats": variables["batch_stats"]}), batch.action.at[:, 0].set(0)))))
     result["parts"] = {
         "target_pass_s": timed(jax.jit(target), variables, reps=reps),
-        "target_rotate_inputs_s": timed(rotate_in, batch.next_color, next_h, reps=reps),
+        "target_rotate_inputs_s": timed(rotate_in, next_c, next_h, reps=reps),
         "target_trunks_and_head_s": timed(trunks, variables, x, reps=reps),
         "target_to_heightmap_s": timed(back, coarse, reps=reps),
         "online_forward_backward_s": timed(grad, variables["params"], reps=reps),
@@ -170,8 +176,7 @@ def phases(st, state, reps: int) -> dict:
     physics = jax.jit(lambda s, a: env.step_grasp_or_reset(s, a[:, 1:], a[:, 0], none, key, n_obj, observe=False)[0])
     s2 = physics(s, action)
     render = jax.jit(lambda s2: env.with_observation(s2, key if cfg.camera.noise.enabled else None))
-    trans = replay.make_grasp_transition(s.color, s.height, action, jnp.zeros((s.n_worlds,)), s.color, s.height,
-                                         none)
+    trans = st.transitions(s, action, jnp.zeros((s.n_worlds,)), s, none)
     add = jax.jit(lambda b, t: replay.add(b, t, mask=~none))
     keys = jax.random.split(key, s1.updates_per_iteration)
     sample = jax.jit(lambda b: jax.lax.scan(

@@ -237,3 +237,42 @@ def test_executed_rotation_only_matches_full_evaluation(symmetric):
     for k in ("w", "c"):
         np.testing.assert_allclose(sub[0].params[k], full[0].params[k], rtol=1e-6, atol=1e-7)
     assert not np.allclose(full[0].params["w"], variables["params"]["w"])  # the update did move
+
+
+def test_a_stored_bootstrap_value_gives_the_target_networks_update():
+    """``stage1.bootstrap = "actor"``: a batch that carries max Q of its next states as values
+    updates exactly as the target network's pass over those states would (rotation subset and
+    symmetric labels, which then take R from ``n_rotations``)."""
+    rng = np.random.default_rng(1)
+    b = 6
+    grasp = replay.make_grasp_transition(
+        rng.integers(0, 256, (b, H, W, 3)), rng.uniform(0, 0.1, (b, H, W)),
+        np.stack([rng.integers(0, R, b), rng.integers(0, H, b), rng.integers(0, W, b)], 1),
+        rng.integers(0, 2, b).astype(np.float32), rng.integers(0, 256, (b, H, W, 3)), rng.uniform(0, 0.1, (b, H, W)),
+        np.array([False, True, False, False, True, False]))
+    variables = {"params": {"w": jnp.asarray(rng.normal(size=R), jnp.float32),
+                            "c": jnp.asarray(rng.normal(size=R), jnp.float32)}, "batch_stats": {}}
+    cfg = DQN(optimizer="sgd", learning_rate=0.1, gamma=0.5, symmetric_grasp_label=True)
+    ts = dqn.create_train_state(variables, cfg)
+    ts = ts.replace(target_params=jax.tree.map(lambda x: 0.7 * x, ts.target_params))  # target != online
+    v = _rotation_net({"params": ts.target_params}, grasp.next_color, grasp.next_height.astype(jnp.float32), False)
+    valued = replay.make_valued_transition(grasp.color, grasp.height, grasp.action, grasp.reward, grasp.done)
+    valued = valued.replace(next_value=v.reshape(b, -1).max(-1))
+    w = jnp.asarray(rng.uniform(0.2, 1.0, b), jnp.float32)
+    target = jax.jit(dqn.make_update_step(_rotation_net, cfg, executed_rotation_only=True))(ts, grasp, w)
+    stored = jax.jit(dqn.make_update_step(_rotation_net, cfg, executed_rotation_only=True, n_rotations=R))(
+        ts, valued, w)
+    np.testing.assert_allclose(stored[1]["target_mean"], target[1]["target_mean"], rtol=1e-6)
+    np.testing.assert_allclose(stored[2], target[2], rtol=1e-6)
+    for k in ("w", "c"):
+        np.testing.assert_allclose(stored[0].params[k], target[0].params[k], rtol=1e-6)
+    # A terminal item's value is ignored: y = r there.
+    y_done = np.asarray(grasp.reward)[np.asarray(grasp.done)]
+    huge = valued.replace(next_value=jnp.where(valued.done, 1e6, valued.next_value))
+    again = jax.jit(dqn.make_update_step(_rotation_net, cfg, executed_rotation_only=True, n_rotations=R))(
+        ts, huge, w)
+    np.testing.assert_allclose(again[2], stored[2], rtol=1e-6)
+    assert y_done.size == 2
+    # Symmetric labels without n_rotations have no R to mirror by: a clear error.
+    with pytest.raises(ValueError, match="n_rotations"):
+        dqn.make_update_step(_rotation_net, cfg, executed_rotation_only=True)(ts, valued, w)

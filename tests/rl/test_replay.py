@@ -193,3 +193,48 @@ def test_repeated_indices_take_the_largest_priority():
     out = replay.update_priorities(state, idx, td, eps=0.0)
     np.testing.assert_allclose(np.asarray(out.priorities), [1.0, 2.0, 1.0, 0.25])
     assert float(out.max_priority) == 2.0
+
+
+def _valued(worlds, done=None):
+    """Actor-bootstrap items from ``worlds`` worlds (4 x 4 maps): reward = world index."""
+    k = worlds
+    return replay.make_valued_transition(jnp.zeros((k, 4, 4, 3)), jnp.zeros((k, 4, 4)), jnp.zeros((k, 3), jnp.int32),
+                                         jnp.arange(k, dtype=jnp.float32),
+                                         jnp.zeros((k,), bool) if done is None else done)
+
+
+def test_pending_items_are_never_sampled_until_their_values_come():
+    example = jax.tree.map(lambda x: x[0], _valued(1))
+    st = replay.init(6, example)
+    add = jax.jit(lambda s, t, m: replay.add(s, t, m, pending=True))
+    fill = jax.jit(replay.fill_pending_values)
+    # Iteration 0: worlds 0, 2 and 3 of 4 grasp (world 1 resets).
+    st = add(st, _valued(4), jnp.array([True, False, True, True]))
+    assert int(st.size) == 3 and int(replay.sampleable(st)) == 0
+    np.testing.assert_array_equal(st.data.world[:3], [0, 2, 3])
+    np.testing.assert_array_equal(st.priorities[:3], [0, 0, 0])
+    # Iteration 1: the actor's max Q of each world's state fills those three, by world.
+    values = jnp.array([10.0, 11.0, 12.0, 13.0])
+    st = fill(st, values)
+    np.testing.assert_array_equal(st.data.next_value[:3], [10, 12, 13])
+    np.testing.assert_array_equal(st.priorities[:3], [1, 1, 1])  # max_priority: sampleable now
+    assert int(replay.sampleable(st)) == 3
+    st = replay.update_priorities(st, jnp.array([0, 1, 2]), jnp.array([0.5, 2.0, 0.1]), 1e-3)
+    # Iteration 1's own attempts (worlds 1 and 3), written over the ring's end: still pending.
+    st = add(st, _valued(4), jnp.array([False, True, False, True]))
+    before = np.asarray(st.priorities)
+    for k in jax.random.split(jax.random.key(0), 50):
+        idx, _, w = replay.sample(st, k, 8, 0.6, 0.4)
+        assert set(np.asarray(idx).tolist()) <= {0, 1, 2}
+        assert np.isfinite(np.asarray(w)).all()
+    # Iteration 2: only iteration 1's two items take values; the older three keep theirs.
+    st = fill(st, jnp.array([20.0, 21.0, 22.0, 23.0]))
+    np.testing.assert_array_equal(st.data.next_value[:5], [10, 12, 13, 21, 23])
+    np.testing.assert_array_equal(st.priorities[:3], before[:3])
+    np.testing.assert_allclose(st.priorities[3:5], [float(st.max_priority)] * 2)
+    # Wrapped: four more pending items fill slots 5, 0, 1, 2; then only they take values.
+    st = add(st, _valued(4), jnp.ones(4, bool))
+    assert int(st.insert_pos) == 3 and int(replay.sampleable(st)) == 2  # slots 3 and 4
+    st = fill(st, jnp.array([30.0, 31.0, 32.0, 33.0]))
+    np.testing.assert_array_equal(st.data.next_value, [31, 32, 33, 21, 23, 30])
+    assert int(replay.sampleable(st)) == 6

@@ -19,7 +19,7 @@ from vags_jax.config.sections import (MAX_HEIGHTMAP_PX, MAX_IMAGE_SIDE, MAX_WORL
                                       MAX_DEVICE_BYTES, REPLAY_BYTES_PER_CELL, Workspace,
                                       OBJECT_SETS, object_pool, PLACEMENTS, EDGE_SCENES,
                                       LEGACY_SCENES, Scene, Sim, Grasp, DepthNoise, Camera, Net,
-                                      DQN, Replay, Exploration, Stage, VAGS_LOCAL_PLANNERS,
+                                      DQN, Replay, Exploration, Stage, STAGE_BOOTSTRAPS, VAGS_LOCAL_PLANNERS,
                                       VAGS_GATES, VAGS_VIEW_REWARDS, VAGS_VIEW_ESTIMATES, VAGS_VIEWPOINTS, VAGS_STAGE3_GDNET, VAGS_STAGE3_GDNET_PICKS, VAGS_CLOSE_REGIONS, VAGS_GATE_ESTIMATES, Vags, GGCNN_SIZE_MULTIPLE,
                                       GGCNN_ROTATIONS, GGCNN_LABELS, GGCNNConfig, GGCNNData,
                                       Benchmark, Mvp, Push, Vpg, Parallel, GateTable, Config, benchmark_groups, check_vpg_fits,

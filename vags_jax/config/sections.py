@@ -611,6 +611,9 @@ class Exploration:
         _within("Exploration.height_threshold", self.height_threshold, 0, 1.0, "metres", hi_open=True)
 
 
+STAGE_BOOTSTRAPS = ("target_network", "actor")
+
+
 @dataclass(frozen=True)
 @checked
 class Stage:
@@ -624,9 +627,16 @@ class Stage:
     max_attempts_extra: int = 5  # round ends after 2 * objects + this many attempts
     updates_per_iteration: int = 1
     learning_starts: int = 16  # transitions in replay before updates start
+    # Where the TD target's max Q of the next state comes from: "target_network", a pass of the
+    # target network over every sampled next state at each update; "actor" (stage 1 only), the
+    # online network's max as the actor computed it when it acted on that state, stored in replay
+    # (VPG's stored labels): no pass over next states in the update, and no next states in replay.
+    bootstrap: str = "target_network"
 
     def __post_init__(self):
         _check(self.n_worlds >= 1, f"Stage.n_worlds must be >= 1, got {self.n_worlds}")
+        _check(self.bootstrap in STAGE_BOOTSTRAPS,
+               f"Stage.bootstrap must be one of {', '.join(map(repr, STAGE_BOOTSTRAPS))}, got {self.bootstrap!r}")
         _check(self.iterations >= 1, f"Stage.iterations must be >= 1, got {self.iterations}")
         _check(1 <= self.min_objects <= self.max_objects,
                f"Stage needs 1 <= min_objects <= max_objects, got {self.min_objects}..{self.max_objects}")
@@ -1161,6 +1171,15 @@ class Config:
                    f"({self.replay.capacity}): learning would never start")
         _check(self.net.n_rotations == self.grasp.n_rotations,
                "net.n_rotations must equal grasp.n_rotations")
+        for name in ("stage2", "stage3", "nbv", "vpg"):
+            _check(getattr(self, name).bootstrap == "target_network",
+                   f"{name}.bootstrap = {getattr(self, name).bootstrap!r}: only stage 1 can bootstrap from the "
+                   f"actor's values; set {name}.bootstrap=target_network")
+        if self.stage1.bootstrap == "actor":
+            _check(not self.dqn.double_q,
+                   "stage1.bootstrap = 'actor' stores the actor's max Q of the next state, so it cannot "
+                   "take double Q's target-network value at the online argmax; set dqn.double_q=false or "
+                   "stage1.bootstrap=target_network")
         d = self.parallel.devices
         for what, n in (("stage1.n_worlds", self.stage1.n_worlds), ("replay.capacity", self.replay.capacity),
                         ("dqn.batch_size", self.dqn.batch_size)):

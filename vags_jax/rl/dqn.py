@@ -139,7 +139,7 @@ def huber_loss_at_action(q: jax.Array, action: jax.Array, y: jax.Array, weights:
 
 # Long (one reason): target, loss and optimizer step share one closure over the config and apply_fn.
 def make_update_step(apply_fn: Callable, cfg: DQN, executed_rotation_only: bool = False,
-                     axis_name: Optional[str] = None) -> Callable:
+                     axis_name: Optional[str] = None, n_rotations: Optional[int] = None) -> Callable:
     """Build ``update(train_state, batch, weights) -> (train_state, metrics, td_errors (b,))``.
 
     ``executed_rotation_only`` (GDNet): the online network is evaluated only at each sample's
@@ -159,6 +159,11 @@ def make_update_step(apply_fn: Callable, cfg: DQN, executed_rotation_only: bool 
     the target network (params and batch_stats) is copied from the online one whenever the new
     step count is a multiple of ``cfg.target_update_period``.  Jittable.
 
+    A batch of :class:`vags_jax.rl.replay.ValuedGraspTransition` carries its bootstrap value:
+    y = r + gamma * next_value (none where ``done``), with no pass over the next state (VPG
+    stores its labels so).  ``n_rotations`` (GDNet's R) is then needed for
+    ``cfg.symmetric_grasp_label``, whose mirror rotation otherwise comes from the target pass.
+
     ``axis_name`` (data-parallel training, under ``jax.shard_map``): ``batch`` is this device's
     share of the batch; the gradients and the metrics are averaged over the axis before the
     optimizer step, so that parameters and optimizer state stay identical on every device.
@@ -169,15 +174,17 @@ def make_update_step(apply_fn: Callable, cfg: DQN, executed_rotation_only: bool 
     tx = make_optimizer(cfg)
 
     def update(ts: TrainState, batch, weights: jax.Array):
-        color, next_color = batch.color, batch.next_color
-        height = batch.height.astype(jnp.float32)
-        next_height = batch.next_height.astype(jnp.float32)
+        color, height = batch.color, batch.height.astype(jnp.float32)
 
         target_vars = {"params": ts.target_params, "batch_stats": ts.target_batch_stats}
-        r_all = None
+        r_all = n_rotations
         if cfg.gamma == 0:  # y = r, a success estimate: no pass over the next state
             y = jax.lax.stop_gradient(batch.reward.astype(jnp.float32))
+        elif isinstance(batch, replay.ValuedGraspTransition):  # the value the actor's pass stored
+            v = jnp.where(batch.done, 0.0, batch.next_value.astype(jnp.float32))
+            y = jax.lax.stop_gradient(batch.reward.astype(jnp.float32) + cfg.gamma * v)
         else:
+            next_color, next_height = batch.next_color, batch.next_height.astype(jnp.float32)
             next_q_t = apply_fn(target_vars, next_color, next_height, False)
             r_all = next_q_t.shape[1] if next_q_t.ndim == 4 else None
             if cfg.double_q:
@@ -188,7 +195,8 @@ def make_update_step(apply_fn: Callable, cfg: DQN, executed_rotation_only: bool 
                 y = td_target(batch.reward, batch.done, next_q_t, cfg.gamma)
         sub_rot = executed_rotation_only and batch.action.shape[-1] == 3
         if sub_rot and cfg.symmetric_grasp_label and r_all is None:
-            raise ValueError("symmetric grasp labels need gamma > 0 (the rotation count comes from the target pass)")
+            raise ValueError("symmetric grasp labels need gamma > 0 or n_rotations (the rotation count comes "
+                             "from the target pass)")
 
         def loss_fn(params):
             online = {"params": params, "batch_stats": ts.batch_stats}
@@ -236,7 +244,7 @@ def make_update_step(apply_fn: Callable, cfg: DQN, executed_rotation_only: bool 
 
 
 def learn_from_replay(update: Callable, learner: TrainState, buffer, key: jax.Array, cfg, n_updates: int,
-                      learning_starts: int, axis_name: Optional[str] = None):
+                      learning_starts: int, axis_name: Optional[str] = None, count_pending: bool = False):
     """``n_updates`` updates of one network from its prioritized replay (``vags_jax.rl.replay``),
     none until the buffer holds ``learning_starts`` transitions; ``update`` from
     ``make_update_step``, ``cfg`` the whole Config (its ``dqn`` and ``replay`` sections).
@@ -245,8 +253,10 @@ def learn_from_replay(update: Callable, learner: TrainState, buffer, key: jax.Ar
     ``axis_name`` (data parallel): ``buffer`` is this device's replay shard and ``cfg`` the
     per-device config (its ``dqn.batch_size`` this device's share); updates start once every
     shard holds ``learning_starts``, so that all devices update together; ``key`` should
-    differ per device (``collectives.device_key``)."""
-    ready = collectives.smallest(buffer.size, axis_name) >= max(learning_starts, 1)
+    differ per device (``collectives.device_key``).  ``count_pending``: a buffer with pending
+    items (``replay.add(..., pending=True)``) counts only the ones ``sample`` can draw."""
+    held = replay.sampleable(buffer) if count_pending else buffer.size
+    ready = collectives.smallest(held, axis_name) >= max(learning_starts, 1)
 
     def one(carry, k):
         def do(args):

@@ -104,6 +104,47 @@ def make_grasp_transition(color, height, action, reward, next_color, next_height
     )
 
 
+@flax.struct.dataclass
+class ValuedGraspTransition:
+    """A grasp attempt stored with its bootstrap value instead of its next state (stage 1 with
+    ``stage1.bootstrap = "actor"``).  Shapes per item, as :class:`GraspTransition`.
+
+    color:      (H, W, 3) uint8   colour heightmap before the grasp
+    height:     (H, W)    float16 heights in metres before the grasp
+    action:     (3,)      int32   [rotation, row, col]
+    reward:     ()        float32
+    next_value: ()        float32 max Q over every action of the next state, as the actor's pass
+                                  computed it when it acted there (0 until then: see ``add``'s
+                                  ``pending``)
+    done:       ()        bool    terminal: no bootstrap from the next state
+    world:      ()        int32   the world (this device's index) that made the attempt
+    """
+
+    color: jax.Array
+    height: jax.Array
+    action: jax.Array
+    reward: jax.Array
+    next_value: jax.Array
+    done: jax.Array
+    world: jax.Array
+
+
+def make_valued_transition(color, height, action, reward, done, height_dtype=jnp.float16) -> ValuedGraspTransition:
+    """A batch of K :class:`ValuedGraspTransition` (leading dim K: ``color`` (K, H, W, 3),
+    ``height`` (K, H, W), ``action`` (K, 3), ``reward``/``done`` (K,)) made by worlds 0..K-1,
+    their ``next_value`` still 0."""
+    k = jnp.shape(reward)[0]
+    return ValuedGraspTransition(
+        color=compress_color(color),
+        height=compress_heightmap(height, height_dtype),
+        action=jnp.asarray(action, jnp.int32),
+        reward=jnp.asarray(reward, jnp.float32),
+        next_value=jnp.zeros((k,), jnp.float32),
+        done=jnp.asarray(done, jnp.bool_),
+        world=jnp.arange(k, dtype=jnp.int32),
+    )
+
+
 # ----------------------------------------------------------------------------- buffer
 
 
@@ -144,12 +185,15 @@ def init(capacity: int, example_transition: PyTree) -> ReplayState:
     )
 
 
-def add(state: ReplayState, transitions: PyTree, mask: Optional[jax.Array] = None) -> ReplayState:
+def add(state: ReplayState, transitions: PyTree, mask: Optional[jax.Array] = None,
+        pending: bool = False) -> ReplayState:
     """Write K transitions (every leaf has leading dim K, K static and <= capacity) at the ring
     position, overwriting the oldest items once full.  New items get ``state.max_priority``.
 
     mask: optional (K,) bool; only the masked transitions are written (in order, packed
     together), the others are dropped.
+    pending: the items get priority 0 instead, so that ``sample`` never draws them, until
+    ``fill_pending_values`` gives them their bootstrap value (``ValuedGraspTransition``).
     """
     leaves = jax.tree.leaves(transitions)
     k = leaves[0].shape[0]
@@ -168,10 +212,33 @@ def add(state: ReplayState, transitions: PyTree, mask: Optional[jax.Array] = Non
                         state.data, transitions)
     return state.replace(
         data=data,
-        priorities=state.priorities.at[idx].set(state.max_priority, mode="drop"),
+        priorities=state.priorities.at[idx].set(0.0 if pending else state.max_priority, mode="drop"),
         insert_pos=(state.insert_pos + n_new) % cap,
         size=jnp.minimum(state.size + n_new, cap).astype(jnp.int32),
     )
+
+
+def fill_pending_values(state: ReplayState, values: jax.Array) -> ReplayState:
+    """Give the items the last ``add(..., pending=True)`` wrote their bootstrap value and make
+    them sampleable (priority ``max_priority``, as a new item's).  ``values`` (K,) float32 is
+    the largest Q of each world's current state (K worlds, as in that ``add``).
+
+    Only that add's items can be pending (priorities are ``|td| + eps`` > 0 once set), and they
+    are the K slots before ``insert_pos`` at most: those of them with priority 0 inside
+    ``[0, size)`` are filled from ``values[item.world]``.  Needs ``capacity >= K``."""
+    k, cap = values.shape[0], state.capacity
+    idx = (state.insert_pos - 1 - jnp.arange(k, dtype=jnp.int32)) % cap
+    pend = (idx < state.size) & (state.priorities[idx] == 0)
+    slot = jnp.where(pend, idx, cap)  # cap = out of range: left alone
+    v = values.astype(jnp.float32)[state.data.world[idx]]
+    data = state.data.replace(next_value=state.data.next_value.at[slot].set(v, mode="drop"))
+    return state.replace(data=data, priorities=state.priorities.at[slot].set(state.max_priority, mode="drop"))
+
+
+def sampleable(state: ReplayState) -> jax.Array:
+    """() int32: items ``sample`` can draw (valid and not pending)."""
+    valid = jnp.arange(state.capacity) < state.size
+    return jnp.sum(valid & (state.priorities > 0)).astype(jnp.int32)
 
 
 def sample(state: ReplayState, key: jax.Array, batch_size: int, alpha: float, beta: float,

@@ -12,7 +12,10 @@ One *iteration* is, for every world at once:
      stall the batch); then every world is rendered once;
   4. the grasping worlds' transitions go into prioritized replay (the resetting worlds add
      none); the last transition of a round is terminal (no bootstrap: a cleared table has no
-     future, and the world's next view will be another scene);
+     future, and the world's next view will be another scene).  With ``stage1.bootstrap =
+     "actor"`` a transition stores no next state: it waits in replay, never sampled, until the
+     next iteration's step 1 gives it the largest Q of the world's next state as its bootstrap
+     value (``replay.fill_pending_values``), and the updates make no pass over next states;
   5. ``updates_per_iteration`` DQN updates from replay (once it holds ``learning_starts``).
 
 Everything is one ``lax.scan`` over iterations inside one jit: no host round trip per step.
@@ -81,7 +84,9 @@ class Stage1:
         self.axis_name = axis_name
         self.env = env if env is not None else VagsEnv(cfg)
         self.net = make_qnet(cfg.net, "gdnet", axis_name)
-        self.update = dqn.make_update_step(self._apply, cfg.dqn, executed_rotation_only=True, axis_name=axis_name)
+        self.actor_bootstrap = cfg.stage1.bootstrap == "actor"
+        self.update = dqn.make_update_step(self._apply, cfg.dqn, executed_rotation_only=True, axis_name=axis_name,
+                                           n_rotations=cfg.net.n_rotations)
         self._run_jit = jax.jit(self._run_impl, static_argnums=1)
 
     def _apply(self, variables, color, height, train, mutable=False, rotations=None):
@@ -106,10 +111,15 @@ class Stage1:
 
     def empty_replay(self, env_state: EnvState) -> replay.ReplayState:
         """An empty replay of ``replay.capacity`` grasp transitions shaped as ``env_state``'s maps."""
-        example = replay.make_grasp_transition(
-            env_state.color[0], env_state.height[0], jnp.zeros((3,), jnp.int32), 0.0,
-            env_state.color[0], env_state.height[0], False)
-        return replay.init(self.cfg.replay.capacity, example)
+        return replay.init(self.cfg.replay.capacity,
+                           example_transition(self.cfg, env_state.color[0], env_state.height[0]))
+
+    def transitions(self, s: EnvState, action: jax.Array, reward: jax.Array, s2: EnvState, done: jax.Array):
+        """The B worlds' transitions from ``s`` to ``s2`` in this stage's replay type: action (B, 3),
+        reward and done (B,).  With ``bootstrap = "actor"`` their values are still to come."""
+        if self.actor_bootstrap:
+            return replay.make_valued_transition(s.color, s.height, action, reward, done)
+        return replay.make_grasp_transition(s.color, s.height, action, reward, s2.color, s2.height, done)
 
     def init_worlds(self, k_n: jax.Array, k_env: jax.Array):
         """Pure and jittable (per device under ``jax.shard_map``): ``stage1.n_worlds`` new scenes
@@ -140,7 +150,7 @@ class Stage1:
         """updates_per_iteration DQN updates (skipped until replay holds learning_starts)."""
         s = self.cfg.stage1
         return dqn.learn_from_replay(self.update, learner, buffer, key, self.cfg, s.updates_per_iteration,
-                                     s.learning_starts, self.axis_name)
+                                     s.learning_starts, self.axis_name, count_pending=self.actor_bootstrap)
 
     def _iteration(self, state: Stage1State, _):
         cfg, env = self.cfg, self.env
@@ -154,6 +164,9 @@ class Stage1:
         q = self._apply(variables, s.color, s.height, False)  # (B, R, H, W)
         action, explored = exploration.select_grasp(k_act, q, s.height, eps, cfg.exploration)
         q_exec = dqn.q_at_action(q, action)
+        buffer = state.replay
+        if self.actor_bootstrap:  # last iteration's transitions get their next state's value
+            buffer = replay.fill_pending_values(buffer, q.reshape(q.shape[0], -1).max(axis=1))
 
         noise_key = k_grasp if cfg.camera.noise.enabled else None
         # Grasps of the playing worlds and new scenes of the worlds whose round ended, in one
@@ -166,8 +179,8 @@ class Stage1:
         reward = result.success.astype(jnp.float32)
         cleared = grasped & (env.n_remaining(s2) == 0)
         over = env.round_over(s2) | s2.sim.error
-        transitions = replay.make_grasp_transition(s.color, s.height, action, reward, s2.color, s2.height, over)
-        buffer = replay.add(state.replay, transitions, mask=grasped)
+        buffer = replay.add(buffer, self.transitions(s, action, reward, s2, over), mask=grasped,
+                            pending=self.actor_bootstrap)
         learner, buffer, (loss, td_abs), n_updates = self._learn(state.learner, buffer, k_learn)
 
         # Metrics over all worlds: totals and means over the devices (each holds as many worlds).
@@ -233,9 +246,7 @@ def checkpoint_layout(cfg: Config) -> dict:
 
     def buffer():
         color, height = jnp.zeros((H, H, 3), jnp.uint8), jnp.zeros((H, H), jnp.float32)
-        example = replay.make_grasp_transition(color, height, jnp.zeros((3,), jnp.int32), 0.0,
-                                               color, height, False)
-        return replay.init(cfg.replay.capacity // d, example)
+        return replay.init(cfg.replay.capacity // d, example_transition(cfg, color, height))
 
     buffers = jax.eval_shape(buffer)
     if d > 1:
@@ -244,3 +255,13 @@ def checkpoint_layout(cfg: Config) -> dict:
     return {"learner": learner, "replay": buffers,
             "key": jax.eval_shape(lambda: jax.random.split(jax.random.PRNGKey(0))[0]),
             "iteration": scalar, "attempts": scalar}
+
+
+def example_transition(cfg: Config, color: jax.Array, height: jax.Array):
+    """One stage-1 replay item (no batch dim) for ``color`` (H, W, 3) and ``height`` (H, W): a
+    ``GraspTransition``, or with ``stage1.bootstrap = "actor"`` a ``ValuedGraspTransition``."""
+    action = jnp.zeros((3,), jnp.int32)
+    if cfg.stage1.bootstrap == "actor":
+        return jax.tree.map(lambda x: x[0], replay.make_valued_transition(
+            color[None], height[None], action[None], jnp.zeros((1,)), jnp.zeros((1,), bool)))
+    return replay.make_grasp_transition(color, height, action, 0.0, color, height, False)

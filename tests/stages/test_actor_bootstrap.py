@@ -1,0 +1,56 @@
+"""Stage 1 with ``stage1.bootstrap = "actor"``: each transition waits in replay until the next
+iteration's forward pass gives it the largest Q of its world's next state; then it is learnt from."""
+import jax
+import numpy as np
+import pytest
+
+from vags_jax import config as C
+from vags_jax.stages.stage1 import Stage1, checkpoint_layout
+
+
+@pytest.fixture(scope="module")
+def stage(fast_cfg):
+    cfg = C.replace(fast_cfg, **{"stage1.bootstrap": "actor", "stage1.learning_starts": 2,
+                                 "stage1.updates_per_iteration": 2})
+    return Stage1(cfg)
+
+
+def test_transitions_take_the_actors_value_of_their_next_state(stage):
+    state = stage.init(jax.random.PRNGKey(5))
+    layout = checkpoint_layout(stage.cfg)["replay"]
+    assert jax.tree.map(lambda a: (a.shape, a.dtype), layout) == jax.tree.map(lambda a: (a.shape, a.dtype),
+                                                                             state.replay)
+    assert not hasattr(state.replay.data, "next_color")  # no next states in replay
+    max_q = jax.jit(lambda ln, s: stage._apply({"params": ln.params, "batch_stats": ln.batch_stats},
+                                               s.color, s.height, False).reshape(s.n_worlds, -1).max(-1))
+    states = [state]
+    for _ in range(3):
+        state, m = stage.run(state, 1)
+        states.append(state)
+        assert int(m["physics_errors"][0]) == 0
+    r = [s.replay for s in states]
+    # After iteration 0 its attempts wait (priority 0): nothing to learn from yet.
+    n0 = int(r[1].size)
+    assert n0 == stage.cfg.stage1.n_worlds and int(jax.device_get(r[1].priorities[:n0]).max()) == 0
+    # Iteration 1's forward pass gave them the max Q of their worlds' states after iteration 0,
+    # by the learner iteration 1 acted with; it learnt from them at once (learning_starts = 2).
+    expect = np.asarray(max_q(states[1].learner, states[1].env))[np.asarray(r[2].data.world[:n0])]
+    np.testing.assert_allclose(np.asarray(r[2].data.next_value[:n0]), expect, rtol=1e-6)
+    assert (np.asarray(r[2].priorities[:n0]) > 0).all()
+    assert not np.allclose(jax.tree.leaves(states[2].learner.params)[0], jax.tree.leaves(states[1].learner.params)[0])
+    # Iteration 2 fills iteration 1's attempts by iteration 2's learner, leaving the older values.
+    n1 = int(r[2].size) - n0
+    assert n1 > 0 and (np.asarray(r[2].priorities[n0:n0 + n1]) == 0).all()
+    world1 = np.asarray(r[3].data.world[n0:n0 + n1])
+    np.testing.assert_allclose(np.asarray(r[3].data.next_value[n0:n0 + n1]),
+                               np.asarray(max_q(states[2].learner, states[2].env))[world1], rtol=1e-6)
+    np.testing.assert_array_equal(np.asarray(r[3].data.next_value[:n0]), np.asarray(r[2].data.next_value[:n0]))
+
+
+def test_only_stage_1_bootstraps_from_the_actor(tiny_cfg):
+    with pytest.raises(ValueError, match="only stage 1"):
+        C.replace(tiny_cfg, **{"stage3.bootstrap": "actor"})
+    with pytest.raises(ValueError, match="double_q"):
+        C.replace(tiny_cfg, **{"stage1.bootstrap": "actor", "dqn.double_q": True})
+    with pytest.raises(ValueError, match="target_network"):
+        C.replace(tiny_cfg, **{"stage1.bootstrap": "online"})
