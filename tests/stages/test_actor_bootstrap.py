@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from vags_jax import config as C
+from vags_jax.stages import checkpoint
 from vags_jax.stages.stage1 import Stage1, checkpoint_layout
 
 
@@ -15,7 +16,7 @@ def stage(fast_cfg):
     return Stage1(cfg)
 
 
-def test_transitions_take_the_actors_value_of_their_next_state(stage):
+def test_transitions_take_the_actors_value_of_their_next_state(stage, tmp_path):
     state = stage.init(jax.random.PRNGKey(5))
     layout = checkpoint_layout(stage.cfg)["replay"]
     assert jax.tree.map(lambda a: (a.shape, a.dtype), layout) == jax.tree.map(lambda a: (a.shape, a.dtype),
@@ -45,6 +46,10 @@ def test_transitions_take_the_actors_value_of_their_next_state(stage):
     np.testing.assert_allclose(np.asarray(r[3].data.next_value[n0:n0 + n1]),
                                np.asarray(max_q(states[2].learner, states[2].env))[world1], rtol=1e-6)
     np.testing.assert_array_equal(np.asarray(r[3].data.next_value[:n0]), np.asarray(r[2].data.next_value[:n0]))
+    # The waiting items are in the checkpoint: resumed from iteration 2, iteration 3 is the same.
+    checkpoint.save(str(tmp_path), 2, states[2])
+    resumed, _ = checkpoint.restore(str(tmp_path), states[2])
+    assert checkpoint.tree_equal(stage.run(resumed, 1)[0], states[3])
 
 
 def test_only_stage_1_bootstraps_from_the_actor(tiny_cfg):
