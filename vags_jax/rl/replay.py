@@ -8,6 +8,9 @@ Pure functions over a :class:`ReplayState` pytree, in the style of flashbax::
     state = update_priorities(state, idx, td_errors, eps)
 
 Everything is jittable with fixed shapes; ``capacity`` and the batch sizes are static.
+Items added with ``pending=True`` keep priority 0 (never sampled, but counted in ``size``)
+until ``fill_pending_values`` gives them their bootstrap value (stage 1's ``bootstrap =
+"actor"``).
 
 Priorities
     Stored raw, ``p_i = |td_i| + eps``; the exponent ``alpha`` is applied at sampling time,

@@ -44,8 +44,10 @@ class Stage1State:
     """Everything stage 1 carries from one iteration to the next (a checkpointable pytree).
 
     env: B worlds (``EnvState``); learner: GDNet online/target variables + optimizer state;
-    replay: prioritized replay of ``GraspTransition``; key: (2,) uint32; iteration: () int32;
-    attempts: () int32, grasp attempts made so far (all worlds).  (Which worlds start a new
+    replay: prioritized replay of ``GraspTransition`` (``ValuedGraspTransition`` with
+    ``stage1.bootstrap = "actor"``, the last iteration's items still waiting for their values);
+    key: (2,) uint32; iteration: () int32; attempts: () int32, grasp attempts made so far (all
+    worlds).  (Which worlds start a new
     round in the next iteration follows from ``env``: ``round_over`` or a physics error.)
     """
 
