@@ -23,7 +23,10 @@ iteration's time goes, and the DQN update's model FLOP utilisation in bf16.
    parts: the target pass (its rotated inputs, trunks + head, maps back to the heightmap) and the
    online network's forward + backward pass, each jitted alone.
 ``--stage stage2`` / ``stage3`` (with ``--run``) replaces 1 and 2 by that stage's attempts/s over
-whole iterations, from the run's saved networks (``vags_stage_iterations``), then measures 3.
+whole iterations, from the run's saved networks (``vags_stage_iterations``), and its phases:
+VANet's pass and the gate, the attempt's plan (close views, fused maps, the close-view planner),
+physics, rendering + heightmaps, GDNet's pass over the new views, and the updates of its three
+networks (``vags_stage_phases``); then measures 3.
 ``--updates-only`` measures 3 alone: no environment is built, so it needs neither MuJoCo nor the
 physics' compile time (for DenseNet-121 on a machine whose time is short).
 Writes every figure to --out as JSON.  Timings mean something on a GPU only (bench/RESULTS.md).
@@ -240,15 +243,64 @@ def whole_iterations(cfg, iterations: int, reps: int) -> dict:
             "iteration_s": it_s, "first_chunk_s": first_s, "phases": ph}
 
 
+def vags_stage_phases(stage, state, reps: int) -> dict:
+    """Seconds of each phase of one stage-2/3 iteration (``VagsStage._iteration``), each jitted
+    alone on ``state``'s arrays: VANet's pass, exploration and the gate (with the success net's
+    estimate); the attempt's plan (every world's close view, its fused map and the close-view
+    planner's pass); the attempts' physics (no render); rendering + heightmaps of every world;
+    GDNet's greedy pass over the new views; the iteration's updates of VANet, GDNet and the
+    success net.  Replay adds and the calibration are left in the rest of the iteration."""
+    from vags_jax.policies.decision import plan_attempt  # the environment's packages (MuJoCo) load only here
+
+    cfg, env, flags = stage.cfg, stage.env, stage.flags
+    key = jax.random.PRNGKey(7)
+    eps = exploration.epsilon(state.iteration, cfg.exploration)
+
+    def choose(st):
+        s = st.env
+        q_view = stage._in_groups(lambda c, h: stage._apply_vanet(stage._vars(st.vanet), c, h, False),
+                                  s.color, s.height)
+        view = exploration.select_pixel(key, q_view, s.height, eps, cfg.exploration)[0]
+        grasp = exploration.select_grasp_from_greedy(key, st.gd_grasp, cfg.net.n_rotations, s.height, eps,
+                                                     cfg.exploration)[0]
+        grasp = jnp.where(flags.train_gdnet, grasp, st.gd_grasp)
+        return stage._decision(st, q_view, grasp, view, flags.stage3)[0]
+
+    def plan(st, decision):
+        return plan_attempt(cfg, env, st.env, decision, key, stage._gdnet_q(st.gdnet), st.ggcnn, stage.ggcnn,
+                            stage.close_success_q(st.success))[0]
+
+    s = state.env
+    none = jnp.zeros((s.n_worlds,), bool)
+    n_obj = jnp.full((s.n_worlds,), stage.stage.min_objects, jnp.int32)
+    choose_jit, plan_jit = jax.jit(choose), jax.jit(plan)
+    decision = choose_jit(state)
+    attempt = plan_jit(state, decision)
+    physics = jax.jit(lambda s, a: env.step_attempt_or_reset(s, a, none, key, n_obj, observe=False)[0])
+    s2 = physics(s, attempt)
+    render = jax.jit(lambda s2: env.with_observation(s2, key if cfg.camera.noise.enabled else None))
+    greedy_next = jax.jit(lambda st, s2: stage._greedy(st.gdnet, s2))
+    learn = jax.jit(lambda st: stage._learn(st, st.vanet_replay, st.gdnet_replay, key, flags.train_gdnet))
+    return {
+        "vanet_and_gate_s": timed(choose_jit, state, reps=reps),
+        "attempt_plan_close_view_s": timed(plan_jit, state, decision, reps=reps),
+        "physics_s": timed(physics, s, attempt, reps=reps),
+        "render_heightmaps_s": timed(render, s2, reps=reps),
+        "gdnet_next_views_s": timed(greedy_next, state, s2, reps=reps),
+        "updates_s": timed(learn, state, reps=reps),
+    }
+
+
 def vags_stage_iterations(cfg, run_dir: str, name: str, iterations: int, programs=None,
-                          chunk: Optional[int] = None) -> dict:
+                          chunk: Optional[int] = None, reps: int = 0) -> dict:
     """Stage 2's or 3's grasp attempts/s over whole iterations (collect + learn), run in chunks of
     the length ``train.py`` uses, from the networks RUN's earlier stages saved (as ``train.py
     --stage`` restores them: untrained networks would not grasp, and the resets that grasps
     bring would be missing from the timing).  Replay is filled to the stage's
-    ``learning_starts`` first; then at least ``iterations`` iterations are timed.  No phase
-    breakdown.  ``programs``: a ``stages.programs.Programs`` whose compiled stage to reuse;
-    ``chunk``: iterations per chunk (``train.py --chunk``; default: its default)."""
+    ``learning_starts`` first; then at least ``iterations`` iterations are timed.  ``reps`` > 0:
+    then each phase of an iteration over ``reps`` calls (``vags_stage_phases``; each phase a
+    compile of its own).  ``programs``: a ``stages.programs.Programs`` whose compiled stage to
+    reuse; ``chunk``: iterations per chunk (``train.py --chunk``; default: its default)."""
     from vags_jax.stages import driver, pipeline, rundir  # the environment's packages (MuJoCo) load only here
     from vags_jax.stages.programs import Programs
 
@@ -272,9 +324,16 @@ def vags_stage_iterations(cfg, run_dir: str, name: str, iterations: int, program
     print(f"{name}: {attempts / wall:,.0f} grasp attempts/s ({attempts} attempts, {updates:.0f} updates of its "
           f"networks in {wall:.2f} s over {n} iterations in chunks of {chunk}; {wall / n * 1e3:.1f} ms per "
           f"iteration; filling replay, compiling included, {first_s:.1f} s)", flush=True)
-    return {"stage": name, "run": run_dir, "iterations_timed": n, "chunk": chunk, "wall_s": wall,
-            "attempts": attempts, "updates": updates, "attempts_per_s": attempts / wall, "iteration_s": wall / n,
-            "first_chunks_s": first_s}
+    result = {"stage": name, "run": run_dir, "iterations_timed": n, "chunk": chunk, "wall_s": wall,
+              "attempts": attempts, "updates": updates, "attempts_per_s": attempts / wall, "iteration_s": wall / n,
+              "first_chunks_s": first_s}
+    if reps > 0:
+        ph = vags_stage_phases(stage, state, reps)
+        ph["rest_of_iteration_s"] = wall / n - sum(ph.values())
+        for k, v in ph.items():
+            print(f"  {k[:-2].replace('_', ' '):28s} {v * 1e3:8.2f} ms  {100 * v / (wall / n):5.1f} %", flush=True)
+        result["phases"] = ph
+    return result
 
 
 def main(argv=None) -> int:
@@ -292,7 +351,7 @@ def main(argv=None) -> int:
     p.add_argument("--no-parts", action="store_true",
                    help="the update MFU without its parts and XLA's FLOP count (one compile per trunk)")
     p.add_argument("--stage", default="stage1", choices=("stage1", "stage2", "stage3"),
-                   help="stage2 / stage3: that stage's whole iterations from --run's saved networks (no phases)")
+                   help="stage2 / stage3: that stage's whole iterations and phases from --run's saved networks")
     p.add_argument("--run", default=None, help="a run directory (its config.json and the earlier stages' "
                    "checkpoints): needed for --stage stage2 / stage3, which start from its networks")
     args = p.parse_args(argv)
@@ -318,7 +377,7 @@ def main(argv=None) -> int:
               "batch_size": cfg.dqn.batch_size, "updates_only": args.updates_only}
     if args.stage != "stage1":
         try:
-            result.update(vags_stage_iterations(cfg, args.run, args.stage, args.iterations))
+            result.update(vags_stage_iterations(cfg, args.run, args.stage, args.iterations, reps=args.reps))
         except ValueError as e:  # CheckpointError: the run lacks the stages this one starts from
             p.error(str(e))
     elif not args.updates_only:

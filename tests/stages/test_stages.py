@@ -312,7 +312,8 @@ def test_train_close_score_success_plans_the_grasp_after_a_move_by_the_success_n
 
 def test_train_throughput_times_stage_3_from_the_runs_networks(runs, programs):
     """bench/train_throughput.py --stage stage3: stage 3's whole iterations from the run's saved
-    networks, in the pipeline's chunks, on the stage program the pipeline compiled."""
+    networks, in the pipeline's chunks, on the stage program the pipeline compiled; then its
+    phases, each compiled alone."""
     sys.path.insert(0, os.path.join(ROOT, "bench"))
     import train_throughput
 
@@ -328,6 +329,10 @@ def test_train_throughput_times_stage_3_from_the_runs_networks(runs, programs):
     # the networks, a fraction of the seconds the pipeline's stages 2-3 compiled for.
     stage2_compile = next(t for t in _timings(full) if t["stage"] == "stage2")["compile"]["seconds"]
     assert clock.seconds < 0.2 * stage2_compile, (clock.as_dict(), stage2_compile)
+    ph = train_throughput.vags_stage_iterations(cfg, full, "stage3", 2, programs, chunk=2, reps=1)["phases"]
+    assert set(ph) - {"rest_of_iteration_s"} == {"vanet_and_gate_s", "attempt_plan_close_view_s", "physics_s", "render_heightmaps_s",
+                       "gdnet_next_views_s", "updates_s"}
+    assert all(v > 0 for k, v in ph.items() if k != "rest_of_iteration_s"), ph
 
 
 def test_stages_2_and_3_run_one_compiled_program(runs):
