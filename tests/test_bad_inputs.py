@@ -206,6 +206,8 @@ SET_CASES = [
     ("stage1.updates_per_iteration=0", r"stage1\.updates_per_iteration must be in \[1, "),
     ("stage1.learning_starts=-1", r"stage1\.learning_starts must be in \[0, "),
     ("stage1.learning_starts=100000", r"stage1\.learning_starts \(100000\) exceeds replay\.capacity \(512\)"),
+    ("stage1.n_worlds=600", r"stage1\.n_worlds \(600\) exceeds replay\.capacity \(512\): one iteration adds up to "
+                            r"one transition per world"),
     ("stage1.max_attempts_extra=-1", r"stage1\.max_attempts_extra must be in \[0, 1,000\]"),
     ('stage1.name=" "', r"stage1\.name must not be empty"),
     ("seed=-1", r"seed must be in \[0, 4,294,967,295\]"),
@@ -318,13 +320,14 @@ def test_train_flag_is_refused_before_anything_is_written(argv, msg, tmp_path, c
 
 def test_a_world_count_that_cannot_fit_is_refused_before_compiling(tmp_path, capsys, monkeypatch):
     """A device of 1 GiB (stages/memory.py's device_bytes, set here): 10,000 tiny worlds need
-    at least 10,000 x (16 x 32 x 32 Q values + 128 x 96 depth pixels) x 4 bytes = 1.07 GiB."""
+    at least 10,000 x (16 x 32 x 32 Q values + 128 x 96 depth pixels) x 4 bytes = 1.07 GiB, and
+    a replay of as many items 10,000 x 10 x 32 x 32 bytes = 0.10 GiB."""
     from vags_jax.stages import memory
 
     monkeypatch.setattr(memory, "device_bytes", lambda: 2**30)
     out = _fresh_out(tmp_path)
-    code, line = _cli(train.main, ["--out", out, "--set", "stage1.n_worlds=10000"], capsys)
-    assert code == 2 and re.search(r"stage1: 10,000 worlds need at least 1\.1 GiB of device memory .* more than "
+    code, line = _cli(train.main, ["--out", out, "--set", "stage1.n_worlds=10000", "replay.capacity=10000"], capsys)
+    assert code == 2 and re.search(r"stage1: 10,000 worlds need at least 1\.2 GiB of device memory .* more than "
                                    r"the 1\.0 GiB of cpu; lower stage1\.n_worlds .* --no-memory-check", line), line
     assert not os.path.exists(out)
 

@@ -56,6 +56,8 @@ def test_vpg_and_push_sections_are_checked():
     small = C.replace(cfg, **{"vpg.max_objects": 5})
     with pytest.raises(ValueError, match=r"vpg.max_objects \(5\) exceeds scene.max_objects \(3\)"):
         C.check_vpg_fits(small)
+    with pytest.raises(ValueError, match=r"vpg.n_worlds \(600\) exceeds replay.capacity \(512\)"):
+        C.check_vpg_fits(C.replace(cfg, **{"vpg.n_worlds": 600}))
 
 
 @pytest.mark.parametrize("field,default,other,bad,choices", [

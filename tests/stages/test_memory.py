@@ -16,7 +16,7 @@ def test_stage_bytes_by_hand():
 
 
 def test_check_fits_names_the_first_stage_that_cannot():
-    cfg = C.replace(C.tiny(), **{"stage2.n_worlds": 10_000})
+    cfg = C.replace(C.tiny(), **{"stage2.n_worlds": 10_000, "replay.capacity": 10_000})
     need2 = memory.stage_bytes(cfg, "stage2")
     assert memory.stage_bytes(cfg, "stage1") < need2
     memory.check_fits(cfg, ("stage1", "stage2"), need2)  # exactly enough

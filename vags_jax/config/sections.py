@@ -1209,6 +1209,11 @@ class Config:
                    f"{self.net.n_rotations} x {px} x {px} each, {q_bytes / 2**30:,.0f} GiB at 2 bytes per "
                    f"value, more than {MAX_DEVICE_BYTES // 2**30} GiB; lower {name}.n_worlds or "
                    f"workspace.heightmap_px")
+        for name in ("stage1", "stage2", "stage3", "nbv"):  # (vpg's: check_vpg_fits)
+            n = getattr(self, name).n_worlds
+            _check(n <= self.replay.capacity,
+                   f"{name}.n_worlds ({n:,}) exceeds replay.capacity ({self.replay.capacity:,}): one iteration "
+                   f"adds up to one transition per world; raise replay.capacity or lower {name}.n_worlds")
 
 
 def check_vpg_fits(cfg: Config) -> None:
@@ -1220,6 +1225,9 @@ def check_vpg_fits(cfg: Config) -> None:
     _check(v.learning_starts <= cfg.replay.capacity,
            f"vpg.learning_starts ({v.learning_starts}) exceeds replay.capacity ({cfg.replay.capacity}): "
            f"learning would never start")
+    _check(v.n_worlds <= cfg.replay.capacity,
+           f"vpg.n_worlds ({v.n_worlds:,}) exceeds replay.capacity ({cfg.replay.capacity:,}): one iteration adds "
+           f"up to one transition per world; raise replay.capacity or lower vpg.n_worlds")
 
 
 def benchmark_groups(cfg: Config) -> tuple[int, ...]:
