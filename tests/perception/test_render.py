@@ -127,3 +127,30 @@ def test_cos_incidence_at_matches_normals_from_depth(scene):
     want = np.take_along_axis(full, pix, axis=1)
     np.testing.assert_allclose(got, want, atol=1e-6)
     assert (want[0, 4:6] == 0).all() and (want > 0.5).mean() > 0.5
+
+
+def test_incidence_from_depth_and_segmentation_matches_exact_normals(scene):
+    """The Warp path's incidence, estimated from depth and the renderer's segmentation, agrees
+    with the ray caster's exact normals: differences stay on one geom, so pixels along an
+    object's silhouette keep their own face's incidence.  Without the segmentation, central
+    differences across depth jumps give grazing incidences there, which the sensor model drops
+    as steep faces."""
+    out = scene["out"]
+    hit = out.depth > 0
+    steep = np.cos(np.deg2rad(DepthNoise().grazing_dropout_deg))
+    exact = out.cos_incidence
+    seg = np.asarray(render.normals_from_depth(jnp.asarray(out.depth), CAM, jnp.asarray(out.geom_id)))
+    plain = np.asarray(render.normals_from_depth(jnp.asarray(out.depth), CAM))
+    err_seg, err_plain = np.abs(seg - exact)[hit], np.abs(plain - exact)[hit]
+    flips_seg = ((seg < steep) != (exact < steep))[hit].mean()
+    flips_plain = ((plain < steep) != (exact < steep))[hit].mean()
+    # Measured at 64 x 48 px: 0.009 and 0.6 % with the segmentation, 0.074 and 9.5 % without.
+    assert err_seg.mean() < 0.02 and flips_seg < 0.015, (err_seg.mean(), flips_seg)
+    assert err_plain.mean() > 4 * err_seg.mean() and flips_plain > 5 * flips_seg, (err_plain.mean(), flips_plain)
+    assert np.all(seg[~hit] == 0) and np.all((seg[hit] >= 0) & (seg[hit] <= 1 + 1e-6))
+    # At chosen pixels only (the heightmap's source pixels): the same values.
+    b, h, w = out.depth.shape
+    pix = np.random.default_rng(1).integers(0, h * w, size=(b, 400)).astype(np.int32)
+    pix[:, :4] = [0, w - 1, (h - 1) * w, h * w - 1]  # corners: neighbours outside the image are not used
+    got = np.asarray(render.cos_incidence_at(jnp.asarray(out.depth), jnp.asarray(pix), CAM, jnp.asarray(out.geom_id)))
+    np.testing.assert_allclose(got, np.take_along_axis(seg.reshape(b, -1), pix, axis=1), atol=1e-6)

@@ -71,7 +71,7 @@ class Observation:
             depth = clean
             if cfg.camera.noise.enabled:
                 if cos is None:
-                    cos = render.normals_from_depth(clean, cfg.camera)
+                    cos = render.normals_from_depth(clean, cfg.camera, gid)
                 depth = jax.vmap(lambda kk, dd, cc: render.add_depth_noise(
                     kk, dd[None], cc[None], cfg.camera.noise, cfg.camera.fx)[0])(k, depth, cos)
             return depth, clean, gid, cos
@@ -97,7 +97,7 @@ class Observation:
             pix = jnp.maximum(source.reshape(b, -1), 0)
             g = jnp.where(source.reshape(b, -1) >= 0, jnp.take_along_axis(gid.reshape(b, -1), pix, axis=1), -1)
             c = (jnp.take_along_axis(cos.reshape(b, -1), pix, axis=1) if cos is not None
-                 else render.cos_incidence_at(clean, pix, cfg.camera))
+                 else render.cos_incidence_at(clean, pix, cfg.camera, gid))
             color = render.shade(g, c, rgb).reshape(height.shape + (3,))
             return color, height
 
@@ -116,7 +116,7 @@ class Observation:
         def one_batch(xpos, xmat, rgb, pose, k, size):
             depth, clean, gid, cos = sense(xpos, xmat, pose, k, size)
             if cos is None:
-                cos = render.normals_from_depth(clean, cfg.camera)
+                cos = render.normals_from_depth(clean, cfg.camera, gid)
             b, h, w = depth.shape
             color = render.shade(gid.reshape(b, -1), cos.reshape(b, -1), rgb).reshape(b, h, w, 3)
             return depth, color
