@@ -3,12 +3,14 @@
 
     python bench/incidence_estimate.py --config tiny --worlds 16 --out runs/incidence.json    # CPU, a minute
     python bench/incidence_estimate.py --config gpu --set sim.impl=jax --worlds 8 --objects 10
+    python bench/incidence_estimate.py --config tiny --view close       # above each pile's highest cell
 
 The depth sensor model drops pixels seen at a grazing incidence (``camera.noise``), and colours are
 shaded by the incidence.  The ray caster ("jax") gives each pixel's exact surface normal; MJX's
 Warp renderer gives none, so its path estimates the incidence from the depth image by finite
 differences (``render.normals_from_depth``).  This script measures that estimate on settled scenes
-of the config, global view, with the ray caster alone (so it runs on any device: the estimate
+of the config, from the global view or (``--view close``) from a close viewpoint above each
+pile's highest heightmap cell, with the ray caster alone (so it runs on any device: the estimate
 needs only depth and segmentation, which both renderers give alike, bench/render_parity.py):
 
 * ``exact``: the ray caster's normals (the "jax" path);
@@ -37,6 +39,8 @@ def parse_args(argv=None):
     p.add_argument("--set", nargs="*", default=[], metavar="SECTION.FIELD=VALUE", help="config overrides")
     p.add_argument("--worlds", type=int, default=16, help="scenes (default 16)")
     p.add_argument("--objects", type=int, default=None, help="objects per scene (default scene.max_objects)")
+    p.add_argument("--view", default="global", choices=("global", "close"),
+                   help="the global view, or a close view above each pile's highest cell")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--out", default=None, help="JSON file for every figure")
     args = p.parse_args(argv)
@@ -76,7 +80,7 @@ def summarise(exact_cos, cos, hit, steep_below, sensor_depth, exact_sensor_depth
     }
 
 
-def measure(cfg, worlds: int, objects: int, seed: int) -> dict:
+def measure(cfg, worlds: int, objects: int, seed: int, view: str = "global") -> dict:
     import jax
     import jax.numpy as jnp
     import numpy as np
@@ -88,7 +92,11 @@ def measure(cfg, worlds: int, objects: int, seed: int) -> dict:
     key_reset, key_noise = jax.random.split(jax.random.PRNGKey(seed))
     state = env.reset(key_reset, np.full(worlds, objects))
     d = state.sim.data
-    pose = jnp.broadcast_to(jnp.asarray(env.global_pose), (worlds, 4, 4))
+    pose = env.global_poses(worlds)
+    if view == "close":  # above the highest cell of the global heightmap (the top of the pile)
+        top = jnp.argmax(state.height.reshape(worlds, -1), axis=1)
+        n = state.height.shape[-1]
+        pose = env.viewpoint_pose(state, jnp.stack([top // n, top % n], axis=1))
     geometry = render.prepare_geometry(env.scene.mj_model, env.scene.render_geom_mask)
     cam, ws, noise = cfg.camera, cfg.workspace, cfg.camera.noise
     keys = jax.random.split(key_noise, worlds)
@@ -142,15 +150,15 @@ def main(argv=None) -> int:
     except ValueError as e:
         print(f"incidence_estimate.py: error: {e}", file=sys.stderr)
         return 2
-    result = measure(cfg, args.worlds, objects, args.seed)
-    print(f"{args.worlds} scenes of {objects} objects ({args.config}, {cfg.camera.width} x {cfg.camera.height} px, "
+    result = measure(cfg, args.worlds, objects, args.seed, args.view)
+    print(f"{args.worlds} scenes of {objects} objects, {args.view} view ({args.config}, {cfg.camera.width} x {cfg.camera.height} px, "
           f"heightmaps {cfg.workspace.heightmap_px} px); {100 * result['hit_share']:.1f} % of pixels hit")
     print(table(result))
     if args.out:
         os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
         with open(args.out, "w") as f:
             json.dump({"config": args.config, "set": args.set, "worlds": args.worlds, "objects": objects,
-                       "seed": args.seed, **result}, f, indent=1)
+                       "seed": args.seed, "view": args.view, **result}, f, indent=1)
     return 0
 
 
