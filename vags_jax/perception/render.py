@@ -627,7 +627,7 @@ def cos_incidence_at(depth, pixel, cam_cfg: Camera, geom_id=None):
         v = (r.astype(jnp.float32) - cy) / cam_cfg.fy
         return jnp.stack([u, v, jnp.ones_like(u)], axis=-1)
 
-    def neighbour(r, c):  # as `camera.backproject`; indices wrap around like `jnp.roll`
+    def neighbour(r, c):  # as `camera.backproject`; indices wrap like `jnp.roll` (unusable with geom_id)
         idx = (r % h) * w + c % w
         z = jnp.take_along_axis(flat, idx, axis=1)
         if gflat is None:
