@@ -14,8 +14,10 @@ iteration's time goes, and the DQN update's model FLOP utilisation in bf16.
    rendering + heightmaps of every world; adding to replay; replay sampling (x updates per
    iteration); the DQN updates on a fixed batch (x updates per iteration).  "rest of the
    iteration" is the whole iteration minus their sum (what fusion hides shows up negative).
-   "host work per iteration" is a chunk's metrics copy to the host plus a checkpoint save,
-   spread over the default chunk's iterations (train.py does this between chunks).
+   "metrics to host per iteration" is a chunk's metrics copy to the host (train.py's work
+   between chunks) spread over the default chunk's iterations.  One checkpoint save of the
+   whole state is timed apart (``checkpoint_save_s``): train.py saves by time (every
+   ``CHECKPOINT_MINUTES``, and at a stage's end), not per chunk.
 3. Update MFU: the model FLOPs of one DQN update (``flop_count``; XLA's ``cost_analysis`` is
    printed beside it; on an H100 it counted 1-3 % of the model FLOPs) x updates/s, against the peak
    of a large bf16 matrix multiply measured in this script on this device, for each trunk of
@@ -198,15 +200,19 @@ def phases(st, state, reps: int) -> dict:
     }
 
 
-def host_work(st, state, metrics, chunk: int) -> float:
-    """A chunk's host work (metrics to the host, one checkpoint) spread over its iterations."""
+def host_work(state, metrics, chunk: int) -> tuple[float, float]:
+    """(a chunk's metrics copy to the host spread over its ``chunk`` iterations, one checkpoint
+    save of ``state``), seconds."""
+    from vags_jax.stages import checkpoint  # the environment's packages (MuJoCo) load only here
+
+    t = time.perf_counter()
+    jax.device_get(metrics)
+    copy_s = time.perf_counter() - t
     with tempfile.TemporaryDirectory() as d:
         t = time.perf_counter()
-        jax.device_get(metrics)
-        from vags_jax.stages import checkpoint  # the environment's packages (MuJoCo) load only here
-
         checkpoint.save(d, 1, state)
-        return (time.perf_counter() - t) / chunk
+        save_s = time.perf_counter() - t
+    return copy_s / chunk, save_s
 
 
 def whole_iterations(cfg, iterations: int, reps: int) -> dict:
@@ -235,12 +241,16 @@ def whole_iterations(cfg, iterations: int, reps: int) -> dict:
 
     ph = phases(st, state, reps)
     ph["rest_of_iteration_s"] = it_s - sum(ph.values())
-    ph["host_work_per_iteration_s"] = host_work(st, state, metrics, pipeline.default_chunk(s1.iterations))
+    ph["metrics_to_host_per_iteration_s"], save_s = host_work(state, metrics, pipeline.default_chunk(s1.iterations))
     for k, v in ph.items():
         print(f"  {k[:-2].replace('_', ' '):28s} {v * 1e3:8.2f} ms  {100 * v / it_s:5.1f} %", flush=True)
+    from vags_jax.stages.driver import CHECKPOINT_MINUTES
+
+    print(f"  one checkpoint save {save_s:.2f} s (train.py saves every {CHECKPOINT_MINUTES:g} minutes and at "
+          f"a stage's end, not per chunk)", flush=True)
 
     return {"iterations_timed": n, "wall_s": wall, "attempts": attempts, "attempts_per_s": attempts / wall,
-            "iteration_s": it_s, "first_chunk_s": first_s, "phases": ph}
+            "iteration_s": it_s, "first_chunk_s": first_s, "phases": ph, "checkpoint_save_s": save_s}
 
 
 def vags_stage_phases(stage, state, reps: int) -> dict:
