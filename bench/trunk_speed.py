@@ -20,7 +20,9 @@ variables, and each is checked against the module's output:
   input (12 channels a stream): the same sums, in fewer, wider taps;
 * ``streams`` and ``streams_s2d``: each stream's layers as plain ``lax`` convolutions, without and
   with that first layer; ``streams_s2d_folded``: with eval-mode BatchNorm folded into each
-  kernel and a bias (conv + bias + ReLU a layer).
+  kernel and a bias (conv + bias + ReLU a layer); ``streams_s2d_folded_depth1``: also the depth
+  stream's first layer over the one height channel, with its kernel summed over the three input
+  channels that ``normalise_height`` fills with copies of it (4 space-to-depth channels, not 12).
 
 Then one stream's layers 0..k alone (k = 0..3, with and without space-to-depth): where a pass
 goes, layer by layer.
@@ -94,22 +96,28 @@ def _space_to_depth_first_conv(x, kernel, groups: int = 2):
 def _stream(v, trunk: str, x, s2d: bool, upto: int = 4, fold: bool = False):
     """One trunk's layers ``0 .. upto - 1`` as plain convolutions (``s2d``: the first by
     space-to-depth; ``fold``: eval-mode BatchNorm folded into the kernel and a bias, so that
-    each layer is conv + bias + ReLU)."""
+    each layer is conv + bias + ReLU).  An ``x`` of one channel where the first kernel takes
+    more stands for that many copies of it: the kernel is summed over its input channels."""
     p = v["params"][trunk]
     for i in range(min(upto, 3)):
         mul, shift = _bn(v, trunk, f"norm{i}")
         k = p[f"conv{i}"]["kernel"] * mul if fold else p[f"conv{i}"]["kernel"]
+        if i == 0 and x.shape[-1] == 1 < k.shape[2]:
+            k = k.sum(axis=2, keepdims=True)
         x = _space_to_depth_first_conv(x, k, 1) if (s2d and i == 0) else _conv(x, k, 2, 1, 1)
         x = jax.nn.relu(x + shift.astype(x.dtype)) if fold else _bn_relu(x, mul, shift)
     return _conv(x, p["conv3"]["kernel"], 1, 1, 1) if upto > 3 else x
 
 
-def streams_coarse_q(net, v, raw, s2d: bool = False, fold: bool = False):
+def streams_coarse_q(net, v, raw, s2d: bool = False, fold: bool = False, depth1: bool = False):
     """``coarse_q`` with each stream's layers as plain convolutions (``s2d``: first layer by
-    space-to-depth; ``fold``: BatchNorm folded, ``_stream``)."""
+    space-to-depth; ``fold``: BatchNorm folded, ``_stream``; ``depth1``: the depth stream's
+    first layer over the one height channel)."""
     dt = jnp.dtype(net.dtype)
+    depth = normalise_height(raw[..., 3])
+    depth = depth[..., :1] if depth1 else depth
     feats = jnp.concatenate([_stream(v, "colour_trunk", normalise_colour(raw[..., :3]).astype(dt), s2d, fold=fold),
-                             _stream(v, "depth_trunk", normalise_height(raw[..., 3]).astype(dt), s2d, fold=fold)], -1)
+                             _stream(v, "depth_trunk", depth.astype(dt), s2d, fold=fold)], -1)
     return net.apply(v, feats, False, method=lambda m, f, t: m.head(f, t))
 
 
@@ -154,7 +162,8 @@ def main(argv=None) -> int:
              "grouped_s2d": lambda v, x: grouped_coarse_q(net, v, x, s2d=True),
              "streams": lambda v, x: streams_coarse_q(net, v, x),
              "streams_s2d": lambda v, x: streams_coarse_q(net, v, x, s2d=True),
-             "streams_s2d_folded": lambda v, x: streams_coarse_q(net, v, x, s2d=True, fold=True)}
+             "streams_s2d_folded": lambda v, x: streams_coarse_q(net, v, x, s2d=True, fold=True),
+             "streams_s2d_folded_depth1": lambda v, x: streams_coarse_q(net, v, x, s2d=True, fold=True, depth1=True)}
     rows = []
     for n in [int(b) for b in args.batches.split(",") if b]:
         k = jax.random.split(jax.random.PRNGKey(n), 2)

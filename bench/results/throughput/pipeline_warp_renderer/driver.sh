@@ -7,7 +7,8 @@
 # GPU 0: train.py --config gpu (training seeds 34, then 35; cache /root/cc0: cold, then warm).
 # GPU 1: the same with the two settings (cache /root/cc1).
 # Each run is benchmarked as VAGS and its ablation (--no-viewpoint), groups 1-10 x 50 rounds,
-# seeds 11-13.  Then bench/train_throughput.py's stage-3 phases of run w34 (the Warp renderer).
+# seeds 11-13.  Then bench/train_throughput.py's stage-3 phases of run w34 (the Warp renderer),
+# and bench/trunk_speed.py (its new form: the depth stream's first layer over one channel).
 # Fixed before anything ran (bench/RESULTS.md, "The whole gpu pipeline with the actor's bootstrap
 # value and the Warp renderer", and the section this run's results go to):
 # - Speed: train.py's process wall clock per pair.
@@ -38,7 +39,10 @@ pair() {  # pair GPU NAME SEED [overrides...]
   ev abl_$N python eval.py --run $R --no-viewpoint $E --out "$RES/$N/seed{seed}/eval_vags-no-viewpoint.json" &
   wait
 }
-gpu0() { pair 0 t34 34; pair 0 t35 35; }
+gpu0() {
+  pair 0 t34 34; pair 0 t35 35
+  run trunk_speed timeout 300 python bench/trunk_speed.py --batches 1024 --reps 10 --out $RES/trunk_speed.json
+}
 gpu1() {
   pair 1 w34 34 $NEW; pair 1 w35 35 $NEW
   run tp_stage3 timeout 400 python bench/train_throughput.py --run /root/runs/w34 --stage stage3 --trunks small --no-parts --cache-dir /root/cc1 --out $RES/tp_stage3_w34.json
