@@ -103,3 +103,22 @@ def test_bad_world_count_is_a_usage_error(capsys):
     with pytest.raises(SystemExit) as e:
         rp.parse_args(["--worlds", "0"])
     assert e.value.code == 2 and "--worlds must be in 1..1024" in capsys.readouterr().err
+
+
+def test_the_steep_face_share_of_the_warp_estimate_is_checked():
+    d, _, _ = _scene()
+    exact = np.full(d.shape, 0.9)
+    exact[:, :2, 10:] = 0.1  # 2 of 40 rows of the hit pixels are steep faces: 5 %
+    same = rp.steep_stats(exact, d, exact, d, 75.0)
+    assert same["steep_share_jax"] == pytest.approx(0.05) and same["steep_share_ratio"] == pytest.approx(1.0)
+    assert rp.failures(same, rp.SENSOR_THRESHOLDS) == []
+    # Silhouettes seen as grazing faces: twice the steep pixels fails, and so does half of them.
+    est = exact.copy()
+    est[:, 2:4, 10:] = 0.1
+    f = rp.failures(rp.steep_stats(exact, d, est, d, 75.0), rp.SENSOR_THRESHOLDS)
+    assert len(f) == 1 and "steep-face pixels" in f[0] and "0.8 .. 1.25" in f[0]
+    est = exact.copy()
+    est[:, 1, 10:] = 0.9
+    assert len(rp.failures(rp.steep_stats(exact, d, est, d, 75.0), rp.SENSOR_THRESHOLDS)) == 1
+    # Pixels nothing hit do not count (their incidence is 0).
+    assert rp.steep_stats(np.where(d > 0, exact, 0.0), d, exact, d, 75.0)["steep_share_ratio"] == pytest.approx(1.0)

@@ -8,7 +8,8 @@
 # GPU 1: the same with the two settings (cache /root/cc1).
 # Each run is benchmarked as VAGS and its ablation (--no-viewpoint), groups 1-10 x 50 rounds,
 # seeds 11-13.  Then bench/train_throughput.py's stage-3 phases of run w34 (the Warp renderer),
-# and bench/trunk_speed.py (its new form: the depth stream's first layer over one channel).
+# bench/trunk_speed.py (its new form: the depth stream's first layer over one channel), and
+# bench/render_parity.py (now also the steep-face share of the Warp path's incidence estimate).
 # Fixed before anything ran (bench/RESULTS.md, "The whole gpu pipeline with the actor's bootstrap
 # value and the Warp renderer", and the section this run's results go to):
 # - Speed: train.py's process wall clock per pair.
@@ -46,6 +47,7 @@ gpu0() {
 gpu1() {
   pair 1 w34 34 $NEW; pair 1 w35 35 $NEW
   run tp_stage3 timeout 400 python bench/train_throughput.py --run /root/runs/w34 --stage stage3 --trunks small --no-parts --cache-dir /root/cc1 --out $RES/tp_stage3_w34.json
+  run render_parity timeout 300 python bench/render_parity.py --worlds 64 --objects 10 --out $RES/render_parity.json
 }
 gpu0 & gpu1 & wait
 echo "done $(date +%T)" >> $log
