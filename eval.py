@@ -136,6 +136,7 @@ def main(argv=None) -> int:
         what = cli.out_of_memory(e)
         if what is None:
             raise
+        cli.drop_failed_device_work()
         print(f"{PROG}: error: out of accelerator memory ({what}): play fewer worlds at once (--rounds, --groups), "
               f"lower net.forward_batch (--set net.forward_batch=N), or leave this process more of the device "
               f"(fewer processes beside it, or a larger XLA_PYTHON_CLIENT_MEM_FRACTION); the reports written "

@@ -714,10 +714,10 @@ def test_vpg_resume_checks_its_checkpoint_before_anything_runs(tmp_path, capsys,
     assert _snapshot(run) == before
 
 
-def test_a_chunk_out_of_accelerator_memory_is_one_line_with_what_to_lower(tmp_path, capsys):
+def test_a_chunk_out_of_accelerator_memory_is_one_line_with_what_to_lower(tmp_path, capsys, failed_runtime_token):
     """XLA's RESOURCE_EXHAUSTED in a chunk (VPG's first H100 run asked for 48.44 GiB) ends the
     stage with one line: what XLA tried, the settings to lower, what was kept; timings.jsonl says
-    out_of_memory."""
+    out_of_memory; JAX's exit handler no longer re-raises the failed program's runtime token."""
     from types import SimpleNamespace
 
     class Stage:
@@ -738,6 +738,7 @@ def test_a_chunk_out_of_accelerator_memory_is_one_line_with_what_to_lower(tmp_pa
     assert err.strip().splitlines()[-1].startswith("train.py: error: out of accelerator memory in vpg")
     with open(os.path.join(out, "timings.jsonl")) as f:
         assert json.loads(f.readlines()[-1])["status"] == "out_of_memory"
+    failed_runtime_token.wait_for_tokens()  # JAX's atexit handler: raised after the one line before
 
 
 # ----------------------------------------------------------------------------- eval.py flags
@@ -1357,7 +1358,29 @@ def test_the_rate_gate_without_a_table_for_the_runs_networks_says_how_to_measure
 _OOM = "RESOURCE_EXHAUSTED: Out of memory while trying to allocate 11.17GiB with allocator GPU_0_bfc on device 0."
 
 
-def test_eval_out_of_memory_is_one_line_saying_what_to_lower(monkeypatch, capsys):
+class _FailedToken:
+    """The runtime token of a program with side effects (MJX's Warp calls) that failed on the device."""
+
+    def block_until_ready(self):
+        raise jax.errors.JaxRuntimeError(_OOM)
+
+
+@pytest.fixture
+def failed_runtime_token():
+    """JAX's token set holding a failed token, as after the out-of-memory of a Warp run on an H200:
+    JAX's exit handlers (``dispatch.wait_for_tokens``, ``api.clean_up``) then printed two tracebacks
+    after train.py's one-line error.  Yields ``jax._src.dispatch``; clears the set afterwards."""
+    from jax._src import dispatch
+
+    dispatch.runtime_tokens.output_runtime_tokens["a device"] = _FailedToken()
+    with pytest.raises(jax.errors.JaxRuntimeError):  # what the exit handler would do now
+        jax.effects_barrier()
+    dispatch.runtime_tokens.output_runtime_tokens["a device"] = _FailedToken()
+    yield dispatch
+    dispatch.runtime_tokens.clear()
+
+
+def test_eval_out_of_memory_is_one_line_saying_what_to_lower(monkeypatch, capsys, failed_runtime_token):
     """XLA's out-of-memory error while playing (e.g. two evaluations sharing a GPU) ends eval.py
     with exit code 1 and one line naming the allocation and what to lower, not a traceback;
     any other runtime error keeps its traceback."""
@@ -1370,6 +1393,7 @@ def test_eval_out_of_memory_is_one_line_saying_what_to_lower(monkeypatch, capsys
     assert code == 1
     assert last.startswith("eval.py: error: out of accelerator memory (Out of memory while trying to allocate 11.17GiB")
     assert "--rounds" in last and "net.forward_batch" in last and "XLA_PYTHON_CLIENT_MEM_FRACTION" in last
+    failed_runtime_token.wait_for_tokens()  # JAX's atexit handler
 
     def other(*a, **k):
         raise jax.errors.JaxRuntimeError("INTERNAL: something else")
@@ -1379,7 +1403,7 @@ def test_eval_out_of_memory_is_one_line_saying_what_to_lower(monkeypatch, capsys
         eval_cli.main(["--config", "tiny", "--policy", "heuristic", "--groups", "1", "--rounds", "1"])
 
 
-def test_gate_measure_out_of_memory_is_one_line(monkeypatch, tmp_path, capsys):
+def test_gate_measure_out_of_memory_is_one_line(monkeypatch, tmp_path, capsys, failed_runtime_token):
     from vags_jax.stages import gate_measure
 
     def oom(*a, **k):
@@ -1390,3 +1414,4 @@ def test_gate_measure_out_of_memory_is_one_line(monkeypatch, tmp_path, capsys):
     assert code == 1 and line.startswith("python -m vags_jax.stages.gate_measure: error: out of accelerator memory "
                                          "(Out of memory while trying to allocate 11.17GiB"), line
     assert "lower --worlds" in line and f"{tmp_path}/gate.json is unchanged" in line, line
+    failed_runtime_token.wait_for_tokens()  # JAX's atexit handler

@@ -91,6 +91,24 @@ def out_of_memory(e: BaseException) -> Optional[str]:
     return first_line(e, 160).replace("RESOURCE_EXHAUSTED: ", "")
 
 
+def drop_failed_device_work() -> None:
+    """Call after catching a computation that failed on the device (out of memory).  JAX keeps the
+    runtime tokens of programs with side effects (MJX's Warp renderer and BVH are FFI calls marked
+    so), and a failed token raises again from JAX's exit handlers: two tracebacks after our one-line
+    error (seen on an H200 when a Warp-renderer training ran out of memory).
+    Waits for the tokens once here and forgets the failed ones."""
+    import jax
+
+    try:
+        jax.effects_barrier()
+    except Exception:  # the failure already reported by the caller
+        from jax._src import dispatch  # no public API drops a failed token
+
+        tokens = getattr(dispatch, "runtime_tokens", None)
+        if tokens is not None and hasattr(tokens, "clear"):
+            tokens.clear()
+
+
 def first_line(e, limit: int = 200) -> str:
     lines = str(e).strip().splitlines()
     text = lines[0] if lines else type(e).__name__

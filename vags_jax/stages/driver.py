@@ -314,6 +314,7 @@ def run_chunks(name: str, stage, state, start_it: int, total: int, out_dir: str,
         except jax.errors.JaxRuntimeError as e:
             if cli.out_of_memory(e) is None:
                 raise
+            cli.drop_failed_device_work()
             if not args.quiet:
                 print(file=sys.stderr)
             return good, it, out_of_memory(name, e, saved_it, out_dir), grasps_done, None

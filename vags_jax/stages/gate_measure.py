@@ -397,6 +397,7 @@ def main(argv=None) -> int:
         what = cli.out_of_memory(e)
         if what is None:
             raise
+        cli.drop_failed_device_work()
         gate_file = os.path.join(args.run, rate_gate.GATE_FILE)
         print(f"{PROG}: error: out of accelerator memory ({what}): lower --worlds, or leave this process more "
               f"of the device (fewer processes beside it, or a larger XLA_PYTHON_CLIENT_MEM_FRACTION); "
