@@ -4,15 +4,21 @@ camera.render_batch=512`` (``w<S>/``) on one bare H200 (``driver_1gpu.sh``, then
 ``machine_log.txt``).  Pair 34: t34 trained beside the first w34 and bench/render_parity.py (w34 ran
 out of memory there and was trained again alone at the end, warm, without time for its
 benchmark).  Pair 35: w35 then t35, each alone on the GPU.  Runs benchmarked as VAGS and its
-ablation (groups 1-10 x 50 rounds, seeds 11-13).
+ablation (groups 1-10 x 50 rounds, seeds 11-13).  Once ``driver_finish.sh`` has trained pair 34's
+Warp side again with its benchmark (files in ``finish/``), that run takes w34's place in the rule,
+and the tables end with the rule's verdict.
 Run from anywhere: python bench/results/throughput/pipeline_warp_renderer/tables.py"""
 import json
 import os
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-PAIRS = (("34", "t34", "w34"), ("35", "t35", "w35"))
-HOW = {"t34": "beside w34's first try (cold)", "w34": "alone, after its first try (cache mostly warm)",
-       "t35": "alone (warm)", "w35": "alone (cache mostly warm: see the section)"}
+# driver_finish.sh trains pair 34's Warp side again with its benchmark; its files go to finish/.
+W34 = "finish/w34b" if os.path.isdir(os.path.join(HERE, "finish", "w34b")) else "w34"
+PAIRS = (("34", "t34", W34), ("35", "t35", "w35"))
+EXTRA = (("34", "w34"),) if W34 != "w34" else ()  # rows shown, not in the rule
+HOW = {"t34": "beside w34's first try (cold)", "w34": "alone, after its first try (warm)",
+       "t35": "alone (warm)", "w35": "alone (stage 2 and gate compiled in the run)",
+       "finish/w34b": "alone, another machine (cold)"}
 EVAL_SEEDS = (11, 12, 13)
 QUARTERS = ((0, 30), (30, 60), (60, 90), (90, 120))
 
@@ -22,10 +28,10 @@ def load_jsonl(path):
         return [json.loads(line) for line in f if line.strip()]
 
 
-def process_seconds(name):
-    """train.py's process wall clock from the machine log (the last line for that run)."""
-    secs = [int(line.split()[2]) for line in open(os.path.join(HERE, "machine_log.txt"))
-            if line.startswith(f"train_{name} rc=0 ")]
+def process_seconds(run):
+    """train.py's process wall clock from its machine log (the last line for that run)."""
+    log = os.path.join(HERE, os.path.dirname(run), "machine_log.txt")
+    secs = [int(line.split()[2]) for line in open(log) if line.startswith(f"train_{os.path.basename(run)} rc=0 ")]
     return secs[-1]
 
 
@@ -77,65 +83,66 @@ def slash(evals):
 
 
 def label(run):
-    return "Warp renderer" if run.startswith("w") else "preset (ray caster)"
+    return "Warp renderer" if os.path.basename(run).startswith("w") else "preset (ray caster)"
+
+
+def rows():
+    """(training seed, run) in table order: each pair, then the extra rows."""
+    return [(seed, r) for seed, t, w in PAIRS for r in (t, w)] + list(EXTRA)
 
 
 def main():
-    tr = {r: training(r) for _, t, w in PAIRS for r in (t, w)}
+    tr = {r: training(r) for _, r in rows()}
     print("The pipeline (train.py --config gpu; seconds)\n")
     print("| training seed | pipeline | how it ran | train.py process | pipeline wall (summary) | stage 1 | stage 2 "
           "| stage 3 | gate table | stage-1 compiling |")
     print("|---:|---|---|---:|---:|---:|---:|---:|---:|---:|")
-    for seed, t, w in PAIRS:
-        for r in (t, w):
-            x = tr[r]
-            print(f"| {seed} | {label(r)} | {HOW[r]} | {x['process']} | {x['wall']:.1f} | {x['stage']['stage1']:.1f} "
-                  f"| {x['stage']['stage2']:.1f} | {x['stage']['stage3']:.1f} | {x['stage']['gate']:.1f} "
-                  f"| {x['compile1']:.1f} |")
+    for seed, r in rows():
+        x = tr[r]
+        print(f"| {seed} | {label(r)} | {HOW[r]} | {x['process']} | {x['wall']:.1f} | {x['stage']['stage1']:.1f} "
+              f"| {x['stage']['stage2']:.1f} | {x['stage']['stage3']:.1f} | {x['stage']['gate']:.1f} "
+              f"| {x['compile1']:.1f} |")
 
     print("\nStage 1 and the training success\n")
     print("| training seed | pipeline | stage-1 attempts/s after its first chunk | stage-1 success % by quarter "
           "| stage 1 / 2 / 3 recent success % | gate: moving bins; GDNet direct / after a move |")
     print("|---:|---|---:|---|---|---|")
-    for seed, t, w in PAIRS:
-        for r in (t, w):
-            x = tr[r]
-            q = " / ".join(f"{v:.1f}" for v in x["quarters"])
-            rec = " / ".join(f"{x['recent'][k]:.1f}" for k in ("stage1", "stage2", "stage3"))
-            g = x["gate"]
-            print(f"| {seed} | {label(r)} | {x['rate']:.0f} | {q} | {rec} | {g['moving_bins']}; "
-                  f"{g['gdnet']} / {g['close_gdnet']} |")
-    print("\nStage 1's first-quarter success, Warp - preset, per pair: "
-          + ", ".join(f"{tr[w]['quarters'][0] - tr[t]['quarters'][0]:+.1f}" for _, t, w in PAIRS)
-          + f"; mean {mean(tr[w]['quarters'][0] - tr[t]['quarters'][0] for _, t, w in PAIRS):+.2f} points")
+    for seed, r in rows():
+        x = tr[r]
+        q = " / ".join(f"{v:.1f}" for v in x["quarters"])
+        rec = " / ".join(f"{x['recent'][k]:.1f}" for k in ("stage1", "stage2", "stage3"))
+        g = x["gate"]
+        print(f"| {seed} | {label(r)} | {x['rate']:.0f} | {q} | {rec} | {g['moving_bins']}; "
+              f"{g['gdnet']} / {g['close_gdnet']} |")
+    first = [tr[w]["quarters"][0] - tr[t]["quarters"][0] for _, t, w in PAIRS]
+    print("\nStage 1's first-quarter success, Warp - preset, per pair (" + ", ".join(w for _, _, w in PAIRS) + "): "
+          + ", ".join(f"{d:+.1f}" for d in first) + f"; mean {mean(first):+.2f} points")
 
     print("\nThe benchmark (eval.py, groups 1-10 x 50 rounds, seeds 11 / 12 / 13)\n")
     print("| training seed | pipeline | VAGS success % | mean | 6-10 mean | motion number mean | clearing % mean "
           "| ablation success % | mean | 6-10 mean | VAGS - ablation, 6-10 |")
     print("|---:|---|---|---:|---:|---:|---:|---|---:|---:|---:|")
     bm = {}
-    for seed, t, w in PAIRS:
-        for r in (t, w):
-            v = bm[r, "vags"] = benchmark(r, "vags")
-            b = bm[r, "abl"] = benchmark(r, "vags-no-viewpoint")
-            if v is None or b is None:
-                print(f"| {seed} | {label(r)} | not run | | | | | not run | | | |")
-                continue
-            print(f"| {seed} | {label(r)} | {slash(v)} "
-                  f"| {mean(x['success'] for x in v):.1f} | {mean(x['six'] for x in v):.1f} "
-                  f"| {mean(x['motion'] for x in v):.3f} | {mean(x['clearing'] for x in v):.1f} "
-                  f"| {slash(b)} "
-                  f"| {mean(x['success'] for x in b):.1f} "
-                  f"| {mean(x['six'] for x in b):.1f} | {mean(x['six'] for x in v) - mean(x['six'] for x in b):+.1f} |")
+    for seed, r in rows():
+        v = bm[r, "vags"] = benchmark(r, "vags")
+        b = bm[r, "abl"] = benchmark(r, "vags-no-viewpoint")
+        if v is None or b is None:
+            print(f"| {seed} | {label(r)} | not run | | | | | not run | | | |")
+            continue
+        print(f"| {seed} | {label(r)} | {slash(v)} "
+              f"| {mean(x['success'] for x in v):.1f} | {mean(x['six'] for x in v):.1f} "
+              f"| {mean(x['motion'] for x in v):.3f} | {mean(x['clearing'] for x in v):.1f} "
+              f"| {slash(b)} | {mean(x['success'] for x in b):.1f} "
+              f"| {mean(x['six'] for x in b):.1f} | {mean(x['six'] for x in v) - mean(x['six'] for x in b):+.1f} |")
+    diffs = {}
     for seed, t, w in PAIRS:
         if bm[w, "vags"] is None:
             continue
-        dv = mean(x["success"] for x in bm[w, "vags"]) - mean(x["success"] for x in bm[t, "vags"])
-        da = mean(x["success"] for x in bm[w, "abl"]) - mean(x["success"] for x in bm[t, "abl"])
-        print(f"\nPair {seed}, Warp - preset: VAGS {dv:+.2f} points, ablation {da:+.2f} points")
+        diffs[seed] = [mean(x["success"] for x in bm[w, k]) - mean(x["success"] for x in bm[t, k]) for k in ("vags", "abl")]
+        print(f"\nPair {seed}, Warp - preset: VAGS {diffs[seed][0]:+.2f} points, ablation {diffs[seed][1]:+.2f} points")
     print("\n500-round VAGS tables, eval.py's wall_s for seeds 12 and 13 (four evaluations shared the GPU): "
           + "; ".join(f"{r} " + ", ".join(f"{x['eval_wall']:.1f}" for x in bm[r, 'vags'][1:]) + " s"
-                      for _, t, w in PAIRS for r in (t, w) if bm[r, "vags"] is not None))
+                      for _, r in rows() if bm[r, "vags"] is not None))
 
     d = json.load(open(os.path.join(HERE, "render_parity.json")))
     print(f"\nrender_parity.py (64 scenes of 10 objects, 640 x 480): verdict {d['verdict']}; "
@@ -143,6 +150,23 @@ def main():
           f"heightmap mean |diff| {d['heightmap_mean_abs_mm']:.3f} mm, cells > 2 mm {d['heightmap_cells_over_2mm']:.4f}, "
           f"steep share ray caster {100 * d['steep_share_jax']:.3f} % / Warp estimate {100 * d['steep_share_warp']:.3f} % "
           f"(ratio {d['steep_share_ratio']:.3f})")
+
+    # driver_1gpu.sh's rule: parity passes; over both pairs VAGS, the ablation and stage 1's first quarter
+    # each no more than 2 points below the preset's; train.py's wall clock lower on pair 35.
+    print("\nThe rule:")
+    print(f"- render_parity.py: {d['verdict']}")
+    print(f"- stage 1's first quarter, mean over both pairs: {mean(first):+.2f} points")
+    if len(diffs) < len(PAIRS):
+        print(f"- VAGS and the ablation: benchmarked on pair(s) {', '.join(diffs)} only; the rule needs both pairs")
+        verdict = "cannot be applied"
+    else:
+        dv, da = mean(v for v, _ in diffs.values()), mean(a for _, a in diffs.values())
+        print(f"- VAGS, mean over both pairs: {dv:+.2f} points; the ablation: {da:+.2f} points")
+        faster = tr["w35"]["process"] < tr["t35"]["process"]
+        met = d["verdict"] == "PASS" and min(mean(first), dv, da) >= -2.0 and faster
+        verdict = "met" if met else "not met"
+    print(f"- train.py on pair 35: {tr['w35']['process']} s (Warp) against {tr['t35']['process']} s")
+    print(f"Verdict: {verdict}")
 
 
 if __name__ == "__main__":
