@@ -433,8 +433,8 @@ def out_of_memory(name: str, e: Exception, saved_it, out_dir: str) -> str:
     what = cli.out_of_memory(e) or cli.first_line(e, 160)
     kept = (f"the last checkpoint is iteration {saved_it} in {os.path.join(out_dir, checkpoint.CHECKPOINT_DIR)}"
             if saved_it else "nothing was saved")
-    return (f"{OUT_OF_MEMORY} in {name} ({what}): lower {name}.n_worlds or net.forward_batch (--set on a new run), "
-            f"or use a device with more memory; {kept}")
+    return (f"{OUT_OF_MEMORY} in {name} ({what}): lower {name}.n_worlds, net.forward_batch or camera.render_batch "
+            f"(--set on a new run), or use a device with more memory; {kept}")
 
 
 def end_of_segment(args, name: str, start_it: int, it: int, t0: float, status: str,
