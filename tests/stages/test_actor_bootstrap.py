@@ -52,6 +52,16 @@ def test_transitions_take_the_actors_value_of_their_next_state(stage, tmp_path):
     assert checkpoint.tree_equal(stage.run(resumed, 1)[0], states[3])
 
 
+def test_clipped_values_stay_within_what_a_return_can_reach(stage):
+    """stage1.bootstrap_clip: the stored value is the largest Q clipped to [0, 1 / (1 - gamma)]
+    (2 at gamma 0.5); without it, the largest Q as it is."""
+    q = np.zeros((3, 2, 4, 4), np.float32)
+    q[0, 1, 2, 3], q[1, 0, 0, 0], q[2] = 3.9, 0.7, -0.4  # above the cap, inside, below 0
+    np.testing.assert_allclose(np.asarray(stage.bootstrap_values(q)), [3.9, 0.7, -0.4])
+    clipped = Stage1(C.replace(stage.cfg, **{"stage1.bootstrap_clip": True, "dqn.gamma": 0.5}), env=stage.env)
+    np.testing.assert_allclose(np.asarray(clipped.bootstrap_values(q)), [2.0, 0.7, 0.0])
+
+
 def test_only_stage_1_bootstraps_from_the_actor(tiny_cfg):
     with pytest.raises(ValueError, match="only stage 1"):
         C.replace(tiny_cfg, **{"stage3.bootstrap": "actor"})
@@ -59,3 +69,5 @@ def test_only_stage_1_bootstraps_from_the_actor(tiny_cfg):
         C.replace(tiny_cfg, **{"stage1.bootstrap": "actor", "dqn.double_q": True})
     with pytest.raises(ValueError, match="target_network"):
         C.replace(tiny_cfg, **{"stage1.bootstrap": "online"})
+    with pytest.raises(ValueError, match="bootstrap_clip .* needs bootstrap='actor'"):
+        C.replace(tiny_cfg, **{"stage1.bootstrap_clip": True})

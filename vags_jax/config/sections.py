@@ -632,11 +632,17 @@ class Stage:
     # online network's max as the actor computed it when it acted on that state, stored in replay
     # (VPG's stored labels): no pass over next states in the update, and no next states in replay.
     bootstrap: str = "target_network"
+    # With bootstrap "actor": store each value clipped to [0, 1 / (1 - dqn.gamma)], the range of any
+    # discounted return of 0/1 grasp rewards (a barely trained actor's values overshoot it).
+    bootstrap_clip: bool = False
 
     def __post_init__(self):
         _check(self.n_worlds >= 1, f"Stage.n_worlds must be >= 1, got {self.n_worlds}")
         _check(self.bootstrap in STAGE_BOOTSTRAPS,
                f"Stage.bootstrap must be one of {', '.join(map(repr, STAGE_BOOTSTRAPS))}, got {self.bootstrap!r}")
+        _check(not self.bootstrap_clip or self.bootstrap == "actor",
+               f"Stage.bootstrap_clip clips the values the actor stores; it needs bootstrap='actor', "
+               f"got {self.bootstrap!r}")
         _check(self.iterations >= 1, f"Stage.iterations must be >= 1, got {self.iterations}")
         _check(1 <= self.min_objects <= self.max_objects,
                f"Stage needs 1 <= min_objects <= max_objects, got {self.min_objects}..{self.max_objects}")

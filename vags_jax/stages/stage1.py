@@ -15,7 +15,8 @@ One *iteration* is, for every world at once:
      future, and the world's next view will be another scene).  With ``stage1.bootstrap =
      "actor"`` a transition stores no next state: it waits in replay, never sampled, until the
      next iteration's step 1 gives it the largest Q of the world's next state as its bootstrap
-     value (``replay.fill_pending_values``), and the updates make no pass over next states;
+     value (``replay.fill_pending_values``; clipped to [0, 1 / (1 - gamma)] with
+     ``stage1.bootstrap_clip``), and the updates make no pass over next states;
   5. ``updates_per_iteration`` DQN updates from replay (once it holds ``learning_starts``).
 
 Everything is one ``lax.scan`` over iterations inside one jit: no host round trip per step.
@@ -87,12 +88,20 @@ class Stage1:
         self.env = env if env is not None else VagsEnv(cfg)
         self.net = make_qnet(cfg.net, "gdnet", axis_name)
         self.actor_bootstrap = cfg.stage1.bootstrap == "actor"
+        # The largest discounted return of 0/1 rewards: the stored values' ceiling when clipped.
+        self.value_cap = 1.0 / (1.0 - cfg.dqn.gamma) if cfg.stage1.bootstrap_clip else None
         self.update = dqn.make_update_step(self._apply, cfg.dqn, executed_rotation_only=True, axis_name=axis_name,
                                            n_rotations=cfg.net.n_rotations)
         self._run_jit = jax.jit(self._run_impl, static_argnums=1)
 
     def _apply(self, variables, color, height, train, mutable=False, rotations=None):
         return self.net.apply(variables, color, height, train, rotations=rotations, mutable=mutable)
+
+    def bootstrap_values(self, q: jax.Array) -> jax.Array:
+        """Q maps (B, R, H, W) -> (B,) the values the actor stores for its worlds' states: the
+        largest Q, clipped to [0, 1 / (1 - gamma)] with ``stage1.bootstrap_clip``."""
+        v = q.reshape(q.shape[0], -1).max(axis=1)
+        return v if self.value_cap is None else jnp.clip(v, 0.0, self.value_cap)
 
     def _n_objects(self, key: jax.Array, n_worlds: int) -> jax.Array:
         s = self.cfg.stage1
@@ -168,7 +177,7 @@ class Stage1:
         q_exec = dqn.q_at_action(q, action)
         buffer = state.replay
         if self.actor_bootstrap:  # last iteration's transitions get their next state's value
-            buffer = replay.fill_pending_values(buffer, q.reshape(q.shape[0], -1).max(axis=1))
+            buffer = replay.fill_pending_values(buffer, self.bootstrap_values(q))
 
         noise_key = k_grasp if cfg.camera.noise.enabled else None
         # Grasps of the playing worlds and new scenes of the worlds whose round ended, in one
