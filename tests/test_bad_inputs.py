@@ -1375,7 +1375,7 @@ def failed_runtime_token():
     dispatch.runtime_tokens.output_runtime_tokens["a device"] = _FailedToken()
     with pytest.raises(jax.errors.JaxRuntimeError):  # what the exit handler would do now
         jax.effects_barrier()
-    dispatch.runtime_tokens.output_runtime_tokens["a device"] = _FailedToken()
+    dispatch.runtime_tokens.output_runtime_tokens["a device"] = _FailedToken()  # whether or not that dropped it
     yield dispatch
     dispatch.runtime_tokens.clear()
 
