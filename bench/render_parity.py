@@ -173,15 +173,29 @@ def measure(cfg, worlds: int, objects: int) -> dict:
     stats = parity_stats(dj, gj, hj, dw, gw, hw, cfg.camera.far)
     # The Warp path's incidence is its estimate from depth and segmentation (render_full).
     stats.update(steep_stats(cj, dj, cw, dw, cfg.camera.noise.grazing_dropout_deg))
-    # Where the renderers disagree on hit / miss: the geom type that the one hitting renderer saw.
     import mujoco
 
-    one = (dj > 0) != (dw > 0)
-    seen = np.where(dj > 0, gj, gw)[one]
-    types = np.asarray(env.scene.mj_model.geom_type)[np.maximum(seen, 0)]
-    stats["hit_miss_by_geom_type"] = {mujoco.mjtGeom(int(t)).name.replace("mjGEOM_", "").lower(): int((types == t).sum())
-                                      for t in np.unique(types)}
+    names = {int(t): mujoco.mjtGeom(int(t)).name.replace("mjGEOM_", "").lower()
+             for t in np.unique(env.scene.mj_model.geom_type)}
+    stats.update(hit_miss_breakdown(dj, gj, dw, gw, np.asarray(env.scene.mj_model.geom_type), names, cfg.camera.far))
     return stats
+
+
+def hit_miss_breakdown(depth_jax, geom_jax, depth_warp, geom_warp, geom_type, type_names: dict, far: float) -> dict:
+    """Pixels hit by one renderer only, by the type of the geom that renderer hit: those the
+    ``hit_miss_disagreement`` check counts (``hit_miss_by_geom_type``), and the count left out
+    of it because the hit lies beyond 0.9 x ``far`` (``hit_miss_at_far_clip``).  Depths (B, H, W)
+    metres (0 = miss), geom ids (B, H, W); ``geom_type`` (n_geoms,) int; ``type_names`` type ->
+    name."""
+    import numpy as np
+
+    dj, dw = np.asarray(depth_jax), np.asarray(depth_warp)
+    one = (dj > 0) != (dw > 0)
+    near = np.maximum(dj, dw) < 0.9 * far
+    seen = np.where(dj > 0, geom_jax, geom_warp)[one & near]
+    types = np.asarray(geom_type)[np.maximum(seen, 0)]
+    return {"hit_miss_by_geom_type": {type_names[int(t)]: int((types == t).sum()) for t in np.unique(types)},
+            "hit_miss_at_far_clip": int((one & ~near).sum())}
 
 
 def main(argv=None) -> int:
@@ -203,7 +217,8 @@ def main(argv=None) -> int:
     print(f"hit/miss disagreement: {stats['hit_miss_disagreement']:.5f}; same geom id: {stats['same_geom']:.4f}")
     print(f"heightmap mean |diff|: {stats['heightmap_mean_abs_mm']:.3f} mm; cells differing > 2 mm: "
           f"{stats['heightmap_cells_over_2mm']:.4f}")
-    print(f"hit/miss disagreement pixels by the geom type hit: {stats.get('hit_miss_by_geom_type')}")
+    print(f"hit/miss disagreement pixels by the geom type hit: {stats['hit_miss_by_geom_type']}; "
+          f"left out, beyond 0.9 x far: {stats['hit_miss_at_far_clip']}")
     print(f"steep-face pixels (sensor model): ray caster {100 * stats['steep_share_jax']:.3f} %, Warp's estimate "
           f"{100 * stats['steep_share_warp']:.3f} % (ratio {stats['steep_share_ratio']:.3f})")
     failed = failures(stats) + failures(stats, SENSOR_THRESHOLDS)

@@ -122,3 +122,20 @@ def test_the_steep_face_share_of_the_warp_estimate_is_checked():
     assert len(rp.failures(rp.steep_stats(exact, d, est, d, 75.0), rp.SENSOR_THRESHOLDS)) == 1
     # Pixels nothing hit do not count (their incidence is 0).
     assert rp.steep_stats(np.where(d > 0, exact, 0.0), d, exact, d, 75.0)["steep_share_ratio"] == pytest.approx(1.0)
+
+
+def test_the_hit_miss_breakdown_counts_what_the_check_counts():
+    """Pixels hit by one renderer only, by the hit geom's type, and apart from them those beyond
+    0.9 x far that the check leaves out (the H200 run of 2026-11-29 listed 34,688 plane pixels
+    under a disagreement of 0: they were all at the far clip)."""
+    dj, gj, _ = _scene()
+    dw, gw = dj.copy(), gj.copy()
+    dw[0, 0, 20:23] = 0.0  # geom 2 (type 6, box): seen by the ray caster only
+    dj[1, 5, 40] = 0.0  # geom 4 (type 0, plane): seen by Warp only
+    dw[1, 6, 30], gw[1, 6, 30] = 0.0, 3  # the ray caster's hit beyond 0.9 x far
+    dj[1, 6, 30] = 0.95
+    geom_type = np.array([0, 0, 6, 6, 0])
+    out = rp.hit_miss_breakdown(dj, gj, dw, gw, geom_type, {0: "plane", 6: "box"}, far=1.0)
+    assert out == {"hit_miss_by_geom_type": {"plane": 1, "box": 3}, "hit_miss_at_far_clip": 1}
+    stats = rp.parity_stats(dj, gj, np.zeros((2, 4, 4)), dw, gw, np.zeros((2, 4, 4)), 1.0)
+    assert stats["hit_miss_disagreement"] * dj.size == 4
