@@ -23,3 +23,26 @@ def test_check_fits_names_the_first_stage_that_cannot():
     memory.check_fits(cfg, ("stage1", "stage2"), None)  # unknown device memory: no check
     with pytest.raises(ValueError, match=r"^stage2: 10,000 worlds need at least .* lower stage2\.n_worlds"):
         memory.check_fits(cfg, ("ggcnn", "stage1", "stage2"), need2 - 1)
+
+
+class _Device:
+    def __init__(self, stats):
+        self.stats = stats
+
+    def memory_stats(self):
+        return self.stats
+
+
+def test_peak_is_logged_where_the_device_reports_it(tmp_path, monkeypatch):
+    import json
+
+    from vags_jax.stages import driver
+    monkeypatch.setattr(memory.jax, "devices", lambda: [_Device({"peak_bytes_in_use": 3 * memory.GIB // 2})])
+    assert memory.peak_gib() == 1.5
+    driver.log_timing(str(tmp_path), "stage1", 0, 4, 12.34, "done")
+    monkeypatch.setattr(memory.jax, "devices", lambda: [_Device(None)])  # a CPU reports nothing
+    assert memory.peak_gib() is None
+    driver.log_timing(str(tmp_path), "stage2", 0, 2, 1.0, "done")
+    rows = [json.loads(line) for line in open(tmp_path / "timings.jsonl")]
+    assert rows[0]["peak_device_gib"] == 1.5 and rows[0]["wall_s"] == 12.3
+    assert "peak_device_gib" not in rows[1]

@@ -28,8 +28,8 @@ from vags_jax import cli
 from vags_jax.compile_cache import CompileClock
 from vags_jax.ggcnn import data as ggcnn_data
 from vags_jax.policies import rate_gate
-from vags_jax.stages import (checkpoint, compile_ahead, gate_measure, interrupts, pipeline, progress, requests,
-                              run_lock, rundir, stage23)
+from vags_jax.stages import (checkpoint, compile_ahead, gate_measure, interrupts, memory, pipeline, progress,
+                              requests, run_lock, rundir, stage23)
 from vags_jax.stages import ggcnn as ggcnn_stage
 from vags_jax.stages import vpg as vpg_stage
 from vags_jax.stages.programs import Programs
@@ -412,11 +412,15 @@ def _warn_overflow(name: str, it: int, n: int, worlds: int, quiet: bool) -> None
 def log_timing(out: str, name: str, start_it: int, it: int, wall_s: float, status: str,
                compiles: Optional[dict] = None, **extra) -> None:
     """Appends one stage segment's wall-clock to ``out``/timings.jsonl; ``compiles``: what the
-    segment compiled (``CompileClock.as_dict()`` and ``recompiled_chunks``); ``extra``: more fields."""
+    segment compiled (``CompileClock.as_dict()`` and ``recompiled_chunks``); ``extra``: more fields.
+    ``peak_device_gib``: the process's peak device memory so far, where the device reports it."""
     row = {"stage": name, "from": start_it, "to": it, "wall_s": round(wall_s, 1), "status": status,
            "time": time.strftime("%Y-%m-%dT%H:%M:%S"), **extra}
     if compiles is not None:
         row["compile"] = compiles
+    peak = memory.peak_gib()
+    if peak is not None:
+        row["peak_device_gib"] = peak
     with open(os.path.join(out, "timings.jsonl"), "a") as f:
         f.write(json.dumps(row) + "\n")
 

@@ -50,6 +50,18 @@ def device_bytes() -> Optional[int]:
         return None
 
 
+def peak_gib() -> Optional[float]:
+    """The most device memory JAX's first device has held at once so far in this process, in GiB
+    (the allocator's ``peak_bytes_in_use``: arrays and XLA's temporary buffers, not the pool it
+    preallocated), or None where the device does not report it (a CPU)."""
+    try:
+        stats = jax.devices()[0].memory_stats() or {}
+    except Exception:  # a backend without memory statistics
+        return None
+    peak = stats.get("peak_bytes_in_use")
+    return round(peak / GIB, 2) if peak else None
+
+
 def check_fits(cfg, names, have: Optional[int]) -> None:
     """ValueError naming the first stage of ``names`` whose lower bound exceeds ``have`` bytes."""
     if have is None:
@@ -69,4 +81,4 @@ def check_fits(cfg, names, have: Optional[int]) -> None:
                 f"--no-memory-check to try anyway)")
 
 
-__all__ = ["stage_bytes", "device_bytes", "check_fits"]
+__all__ = ["stage_bytes", "device_bytes", "peak_gib", "check_fits"]

@@ -3,7 +3,8 @@ training seed (41, 42), one after the other on one bare H200: as the preset trai
 the target network's pass at every update), with ``stage1.bootstrap=actor`` (``a<S>/``), and with
 the actor's values clipped (``stage1.bootstrap_clip=true``, ``c<S>/``); each GDNet benchmarked
 greedily (eval.py's gdnet policy, groups 1-10 x 50 rounds, seeds 11-13).  Ends with the verdict
-of the rule in driver.sh's header.
+of the rule in driver.sh's header.  The runs made were those of ../h100_finish/driver.sh (one bare
+H100, t and c only; the actor without the clip was not trained again).
 Run from anywhere: python bench/results/throughput/actor_clip/tables.py"""
 import json
 import os
@@ -57,6 +58,8 @@ def main():
     for s in SEEDS:
         for k, mode in MODES:
             run = f"{k}{s}"
+            if not os.path.isdir(os.path.join(HERE, run)):  # h100_finish/driver.sh trained t and c only
+                continue
             t, b = tr[run], bm[run] = training(run), benchmark(run)
             q = " / ".join(f"{x:.1f}" for x in t["quarters"])
             bench = " | ".join(f"{x:.1f}" for x in b) if b else "not run | | "
@@ -64,6 +67,8 @@ def main():
 
     print()
     for k, mode in MODES[1:]:
+        if any(f"{k}{s}" not in tr for s in SEEDS):
+            continue
         gaps = [[tr[f"{k}{s}"]["quarters"][i] - tr[f"t{s}"]["quarters"][i] for s in SEEDS] for i in range(4)]
         print(f"{mode} - target network, success by quarter, mean over seeds: "
               + " / ".join(f"{sum(g) / len(g):+.1f}" for g in gaps) + " points")
