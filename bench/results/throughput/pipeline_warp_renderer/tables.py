@@ -16,9 +16,13 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 W34 = "finish/w34b" if os.path.isdir(os.path.join(HERE, "finish", "w34b")) else "w34"
 PAIRS = (("34", "t34", W34), ("35", "t35", "w35"))
 EXTRA = (("34", "w34"),) if W34 != "w34" else ()  # rows shown, not in the rule
-HOW = {"t34": "beside w34's first try (cold)", "w34": "alone, after its first try (warm)",
-       "t35": "alone (warm)", "w35": "alone (stage 2 and gate compiled in the run)",
-       "finish/w34b": "alone, another machine (cold)"}
+if os.path.isdir(os.path.join(HERE, "finish", "w35h")):  # by hand after h100_finish/driver.sh, outside the rule
+    EXTRA += (("35", "finish/w35h"),)
+HOW = {"t34": "H200, beside w34's first try (cold)", "w34": "H200, alone, after its first try (warm)",
+       "t35": "H200, alone (warm)", "w35": "H200, alone (stage 2 and gate compiled in the run)",
+       "finish/w34b": "H100, alone (cold, a fresh machine)", "finish/w35h": "H100, alone (warm, after finish/w34b)"}
+# How the VAGS evaluations of each run shared the GPU (their wall clock depends on it).
+EVAL_HOW = {"finish/w34b": "H100, two at once", "finish/w35h": "H100, alone"}
 EVAL_SEEDS = (11, 12, 13)
 QUARTERS = ((0, 30), (30, 60), (60, 90), (90, 120))
 
@@ -83,7 +87,8 @@ def slash(evals):
 
 
 def label(run):
-    return "Warp renderer" if os.path.basename(run).startswith("w") else "preset (ray caster)"
+    kind = "Warp renderer" if os.path.basename(run).startswith("w") else "preset (ray caster)"
+    return f"{kind}, {run}"
 
 
 def rows():
@@ -140,8 +145,9 @@ def main():
             continue
         diffs[seed] = [mean(x["success"] for x in bm[w, k]) - mean(x["success"] for x in bm[t, k]) for k in ("vags", "abl")]
         print(f"\nPair {seed}, Warp - preset: VAGS {diffs[seed][0]:+.2f} points, ablation {diffs[seed][1]:+.2f} points")
-    print("\n500-round VAGS tables, eval.py's wall_s for seeds 12 and 13 (four evaluations shared the GPU): "
-          + "; ".join(f"{r} " + ", ".join(f"{x['eval_wall']:.1f}" for x in bm[r, 'vags'][1:]) + " s"
+    print("\n500-round VAGS tables, eval.py's wall_s for seeds 12 and 13: "
+          + "; ".join(f"{r} ({EVAL_HOW.get(r, 'H200, four at once')}) "
+                      + ", ".join(f"{x['eval_wall']:.1f}" for x in bm[r, 'vags'][1:]) + " s"
                       for _, r in rows() if bm[r, "vags"] is not None))
 
     d = json.load(open(os.path.join(HERE, "render_parity.json")))
