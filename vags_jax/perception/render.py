@@ -650,10 +650,12 @@ def check_renderer(cam_cfg: Camera) -> None:
         return
     if importlib.util.find_spec("warp") is None:
         raise ValueError("camera.renderer=warp needs warp-lang, which is not installed: pip install "
-                         "'vags_jax[warp]' on an NVIDIA GPU machine, or use camera.renderer=jax")
+                         "'vags_jax[warp]' on an NVIDIA GPU machine, or use --set camera.renderer=jax (the gpu presets "
+                         "choose warp)")
     if jax.default_backend() != "gpu":
         raise ValueError(f"camera.renderer=warp needs an NVIDIA GPU, but JAX runs on {jax.default_backend()} here: "
-                         f"run it on a GPU machine, or use camera.renderer=jax (the ray caster, any device)")
+                         f"run it on a GPU machine, or use --set camera.renderer=jax (the ray caster, any device; the gpu "
+                         f"presets choose warp)")
 
 
 @dataclasses.dataclass(eq=False)
