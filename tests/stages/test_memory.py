@@ -46,3 +46,19 @@ def test_peak_is_logged_where_the_device_reports_it(tmp_path, monkeypatch):
     rows = [json.loads(line) for line in open(tmp_path / "timings.jsonl")]
     assert rows[0]["peak_device_gib"] == 1.5 and rows[0]["wall_s"] == 12.3
     assert "peak_device_gib" not in rows[1]
+
+
+def test_the_closing_summary_carries_the_peak(tmp_path, monkeypatch, capsys):
+    import argparse
+    import json
+
+    from vags_jax import config as C
+    from vags_jax.stages import driver
+    args = argparse.Namespace(out=str(tmp_path), json=False)
+    summary = {"stage": "stage1", "iterations": 0, "grasp_attempts": 0, "recent_success_rate": None, "wall_s": 1.0,
+               "out": str(tmp_path)}
+    monkeypatch.setattr(memory.jax, "devices", lambda: [_Device({"peak_bytes_in_use": 2 * memory.GIB})])
+    driver.report_end(args, summary, [summary], C.tiny(), 1.0, True)
+    assert json.load(open(tmp_path / "summary.json"))["peak_device_gib"] == 2.0
+    assert "(peak device memory 2.0 GiB)" in capsys.readouterr().out.splitlines()[0]
+    assert "peak_device_gib" not in summary  # the caller's dict is left as it was

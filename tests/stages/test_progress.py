@@ -60,6 +60,8 @@ def test_closing_lines_and_next_commands():
     gg = progress.next_commands("runs/c", {"ggcnn": "1/0", "stage1": "0/8"}, True)
     assert gg == ["python eval.py --run runs/c --policy ggcnn    # GG-CNN from the global view"]
     assert progress.next_commands("runs/d", {"stage1": "4/8"}, False)[0].startswith("python train.py --out runs/d --resume")
+    on_gpu = progress.closing_lines([s1], "runs/a", {"stage1": "8/8"}, 70.0, "runs/a/summary.json", True, peak_gib=50.35)
+    assert on_gpu[0] == "trained in 1 min 10 s: runs/a (peak device memory 50.4 GiB)"
 
 
 @pytest.mark.skipif(importlib.util.find_spec("tensorboardX") is not None, reason="the tensorboard extra is installed")

@@ -142,14 +142,19 @@ def run_status(out: str, cfg, only: Optional[str] = None) -> dict:
 def report_end(args, data: dict, summaries: list, cfg, wall_s: float, finished: bool) -> None:
     """The end of a command: ``data`` (the JSON summary) to RUN/summary.json, and to stdout with
     --json; the human summary and the next commands (``finished``: all this command was asked
-    to train is trained) to stdout (stderr with --json)."""
+    to train is trained) to stdout (stderr with --json).  On a device that reports it, the
+    process's peak device memory is added as ``peak_device_gib``."""
+    peak = memory.peak_gib()
+    if peak is not None:
+        data = {**data, "peak_device_gib": peak}
     path = os.path.join(args.out, SUMMARY_FILE)
     with open(path + ".tmp", "w", encoding="utf-8") as f:
         json.dump(data, f, indent=2)
     os.replace(path + ".tmp", path)
     status = run_status(args.out, cfg)
     lines = progress.closing_lines(summaries, args.out, status, wall_s, path, finished, cfg.parallel.devices > 1,
-                                   cfg.vags.gate != "rate" and os.path.isfile(os.path.join(args.out, rate_gate.GATE_FILE)))
+                                   cfg.vags.gate != "rate" and os.path.isfile(os.path.join(args.out, rate_gate.GATE_FILE)),
+                                   peak)
     print("\n".join(lines), file=sys.stderr if args.json else sys.stdout, flush=True)
     if args.json:
         print(json.dumps(data), flush=True)

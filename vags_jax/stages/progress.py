@@ -112,10 +112,13 @@ def next_commands(out: str, progress: dict, finished: bool, data_parallel: bool 
 
 
 def closing_lines(summaries: Iterable[dict], out: str, progress: dict, wall_s: float, summary_file: str,
-                  finished: bool, data_parallel: bool = False, gate_table: bool = False) -> list:
+                  finished: bool, data_parallel: bool = False, gate_table: bool = False,
+                  peak_gib: Optional[float] = None) -> list:
     """The human summary: one line per stage trained by this command, the run's progress, where
-    the JSON summary is, and the next commands (``next_commands``)."""
-    lines = [f"trained in {duration(wall_s)}: {out}"]
+    the JSON summary is, and the next commands (``next_commands``); ``peak_gib``: the process's
+    peak device memory, where the device reports it."""
+    peak = "" if peak_gib is None else f" (peak device memory {peak_gib:.1f} GiB)"
+    lines = [f"trained in {duration(wall_s)}: {out}{peak}"]
     lines += [stage_line(s) for s in summaries]
     lines.append("  progress: " + ", ".join(f"{n} {p}" for n, p in progress.items()))
     lines.append(f"  summary (JSON): {summary_file}")
