@@ -4,13 +4,15 @@ the target network's pass at every update), with ``stage1.bootstrap=actor`` (``a
 the actor's values clipped (``stage1.bootstrap_clip=true``, ``c<S>/``); each GDNet benchmarked
 greedily (eval.py's gdnet policy, groups 1-10 x 50 rounds, seeds 11-13).  Ends with the verdict
 of the rule in driver.sh's header.  The runs made were those of ../h100_finish/driver.sh (one bare
-H100, t and c only; the actor without the clip was not trained again).
+H100, t and c only; the actor without the clip was not trained again).  driver_control.sh
+(prepared, not yet run) adds t, a and c on seeds 43 and 44 with its own rule, printed last.
 Run from anywhere: python bench/results/throughput/actor_clip/tables.py"""
 import json
 import os
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-SEEDS = (41, 42)
+SEEDS = (41, 42)  # driver.sh's rule (run as ../h100_finish/driver.sh, 2026-12-06)
+CONTROL_SEEDS = (43, 44)  # driver_control.sh's rule, once its runs are here
 MODES = (("t", "target network"), ("a", "actor"), ("c", "actor, clipped"))
 EVAL_SEEDS = (11, 12, 13)
 QUARTERS = ((0, 30), (30, 60), (60, 90), (90, 120))
@@ -55,7 +57,7 @@ def main():
           "| largest Q at iteration 10 | benchmark success % | 6-10 % | clearing % |")
     print("|---:|---|---:|---|---:|---:|---:|---:|")
     tr, bm = {}, {}
-    for s in SEEDS:
+    for s in SEEDS + CONTROL_SEEDS:
         for k, mode in MODES:
             run = f"{k}{s}"
             if not os.path.isdir(os.path.join(HERE, run)):  # h100_finish/driver.sh trained t and c only
@@ -84,7 +86,28 @@ def main():
     met = min(first_two) >= -2.0 and min(bench_gap) >= -1.0
     print(f"Verdict: {'met' if met else 'not met'} (first two quarters "
           + " / ".join(f"{g:+.1f}" for g in first_two) + ")")
+    control_verdict(tr, bm)
     return 0
+
+
+def control_verdict(tr, bm):
+    """driver_control.sh's rule: over seeds 43-44, a's first quarter at least 4 points below t's and
+    c's first two quarters each no more than 2 below; over seeds 41-44, c's benchmark no more than 1
+    point below t's on average."""
+    runs = [f"{k}{s}" for s in CONTROL_SEEDS for k in ("t", "a", "c")]
+    if any(r not in tr or bm[r] is None for r in runs):
+        print("\ndriver_control.sh (seeds 43, 44): not run yet")
+        return
+    def gap(k, i, seeds):
+        return sum(tr[f"{k}{s}"]["quarters"][i] - tr[f"t{s}"]["quarters"][i] for s in seeds) / len(seeds)
+    slow = gap("a", 0, CONTROL_SEEDS)
+    clipped = [gap("c", i, CONTROL_SEEDS) for i in (0, 1)]
+    bench = sum(bm[f"c{s}"][0] - bm[f"t{s}"][0] for s in SEEDS + CONTROL_SEEDS) / len(SEEDS + CONTROL_SEEDS)
+    removes = slow <= -4.0 and min(clipped) >= -2.0
+    print(f"\ndriver_control.sh: actor - target, first quarter (43, 44): {slow:+.1f}; clipped - target, first two "
+          f"quarters: " + " / ".join(f"{g:+.1f}" for g in clipped) + f"; clipped - target, benchmark (41-44): {bench:+.1f}")
+    print(f"Verdict: the clip {'removes' if removes else 'is not shown to remove'} the slow start; "
+          f"it {'keeps' if bench >= -1.0 else 'does not keep'} the GDNet")
 
 
 if __name__ == "__main__":
