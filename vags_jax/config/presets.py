@@ -48,7 +48,7 @@ def gpu() -> Config:
         sim=Sim(impl="warp", timestep=0.006, iterations=2, contacts_per_world=96, native_ccd=False),
         scene=Scene(settle_time=0.85),
         # MJX's Warp renderer, 512 worlds a batch: the pipeline 0.86x the ray caster's wall clock, the same
-        # learning within 2 points (bench/RESULTS.md, "The whole gpu pipeline with the Warp renderer ...").
+        # learning within 2 points (bench/RESULTS.md, "The `gpu` preset takes the Warp renderer").
         camera=Camera(renderer="warp", render_batch=512),
         grasp=Grasp(t_post=0.05, t_lift=0.375, lift_hold=0.0),
         net=Net(trunk="small", small_width=32, dtype="bfloat16"),
