@@ -12,6 +12,9 @@
 #   least 4 points below t's and c's first two quarters are each no more than 2 points below t's.
 # - The clip keeps the GDNet if, averaged over the four seeds 41-44 (41, 42 from 2026-12-06), c's
 #   benchmark success is no more than 1 point below t's.
+# - Seeds 43 and 44 render with the preset's renderer of the day (Warp, the `gpu` preset since
+#   3c3055f); 41 and 42 rendered with the ray caster.  Each comparison is within one seed, so
+#   both sides of it render alike.  (Noted 2026-12-06 before the run; the rule is unchanged.)
 # - No default changes with this look.  If both are met, a later look trains the whole `gpu`
 #   pipeline with stage1.bootstrap=actor stage1.bootstrap_clip=true against the preset (VAGS and
 #   its ablation) before any preset takes them.
