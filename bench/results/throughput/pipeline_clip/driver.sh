@@ -1,13 +1,20 @@
 #!/usr/bin/env bash
-# Issue 27, 2026-12-06, on ONE bare H100 with the ~12 minutes of device time left after
-# actor_clip/driver_control.sh: a first look, outside any rule, at the whole `gpu` pipeline with
-# stage 1's actor values clipped (stage1.bootstrap=actor stage1.bootstrap_clip=true), the step
-# driver_control.sh's header asks for before any preset takes them.
-# One training, seed 35, from an empty compile cache, then VAGS and its ablation (groups 1-10 x 50
-# rounds, seeds 11-13, both at once under a 0.45 cap as w34b's were).  Its pair is w35h
-# (pipeline_warp_renderer/finish/w35h: the same preset and seed on an H100 of 2026-12-06, warm):
-# its learning compares; its wall clock does not (cold here, warm there; not side by side).
-# One pair cannot decide a default, so none changes with this look, whatever it shows.
+# Issue 27, prepared 2026-12-06, NOT yet run (a first, one-run version of this file was committed
+# for the ~12 device minutes left after actor_clip/driver_control.sh; no machine could be started
+# for it, and the tries used the rest of that budget).  For ONE bare H100 (or H200) and a whole
+# 30-minute budget (about 26 minutes with a cold cache): the step actor_clip/driver_control.sh's
+# header asks for before any preset takes stage 1's clipped actor values.
+# Two pairs, one after the other on one GPU, from an empty compile cache:
+#   p36 (train.py --config gpu --set seed=36, the preset), c36 (the same with stage1.bootstrap=actor
+#   stage1.bootstrap_clip=true), p37, c37; then each run's VAGS and ablation (groups 1-10 x 50
+#   rounds, seeds 11-13), each evaluation alone on the GPU.
+# Fixed before any run; the preset takes the clip only if all four hold:
+# - VAGS: c's success no more than 1 point below p's, averaged over both pairs and seeds 11-13;
+# - the ablation (GDNet alone): likewise no more than 1 point below on average;
+# - stage 1's first-quarter success: no more than 2 points below on average;
+# - train.py's wall clock: c below p on the warm pair (37; pair 36's p compiles cold).
+# If a run fails, no default changes.  Files go to this directory (p<S>/, c<S>/).
+# Poll with: bash /root/src/bench/results/throughput/actor_clip/poll.sh 560 /root/res/machine_log_pipeline.txt
 S=/root/src
 export PYTHONPATH=/root/vags-site:$S PYTHONUNBUFFERED=1 CUDA_VISIBLE_DEVICES=0
 unset JAX_COMPILATION_CACHE_DIR
@@ -18,13 +25,17 @@ run() { k=$1; shift; t=$(date +%s); "$@" > $RES/$k.txt 2>&1; rc=$?; echo "$k rc=
 keep() { mkdir -p $2; for f in config.json metrics.jsonl timings.jsonl summary.json gate.json; do cp $1/$f $2/ 2>/dev/null; done
          for s in stage2 stage3; do [ -f $1/$s/metrics.jsonl ] && cp $1/$s/metrics.jsonl $2/${s}_metrics.jsonl; done; }
 C=/root/cc
-run train_c35 timeout 600 python train.py --config gpu --set seed=35 stage1.bootstrap=actor stage1.bootstrap_clip=true --out /root/runs/c35 --cache-dir $C --json
-keep /root/runs/c35 $RES/c35
+declare -A SET=([p]="" [c]="stage1.bootstrap=actor stage1.bootstrap_clip=true")
+for SEED in 36 37; do
+  for K in p c; do
+    run train_$K$SEED timeout 600 python train.py --config gpu --set seed=$SEED ${SET[$K]} --out /root/runs/$K$SEED --cache-dir $C --json
+    keep /root/runs/$K$SEED $RES/$K$SEED
+  done
+done
 E="--seeds 11,12,13 --cache-dir $C"
-if [ -f /root/runs/c35/summary.json ]; then
-( export XLA_PYTHON_CLIENT_PREALLOCATE=false XLA_PYTHON_CLIENT_MEM_FRACTION=0.45
-  run vags_c35 python eval.py --run /root/runs/c35 $E --out "$RES/c35/seed{seed}/eval_vags.json" &
-  run abl_c35 python eval.py --run /root/runs/c35 --no-viewpoint $E --out "$RES/c35/seed{seed}/eval_vags-no-viewpoint.json" &
-  wait )
-fi
+for R in p36 c36 p37 c37; do
+  [ -f /root/runs/$R/summary.json ] || continue
+  run vags_$R python eval.py --run /root/runs/$R $E --out "$RES/$R/seed{seed}/eval_vags.json"
+  run abl_$R python eval.py --run /root/runs/$R --no-viewpoint $E --out "$RES/$R/seed{seed}/eval_vags-no-viewpoint.json"
+done
 echo "done $(date +%T)" >> $log
