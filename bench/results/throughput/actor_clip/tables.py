@@ -4,8 +4,9 @@ the target network's pass at every update), with ``stage1.bootstrap=actor`` (``a
 the actor's values clipped (``stage1.bootstrap_clip=true``, ``c<S>/``); each GDNet benchmarked
 greedily (eval.py's gdnet policy, groups 1-10 x 50 rounds, seeds 11-13).  Ends with the verdict
 of the rule in driver.sh's header.  The runs made were those of ../h100_finish/driver.sh (one bare
-H100, t and c only; the actor without the clip was not trained again).  driver_control.sh
-(prepared, not yet run) adds t, a and c on seeds 43 and 44 with its own rule, printed last.
+H100, t and c only; the actor without the clip was not trained again).  driver_control.sh (one
+bare H100, 2026-12-06, 14:26-14:41 UTC) adds t, a and c on seeds 43 and 44 with its own rule,
+printed last; those seeds render with the preset's Warp renderer, 41 and 42 with the ray caster.
 Run from anywhere: python bench/results/throughput/actor_clip/tables.py"""
 import json
 import os
