@@ -96,7 +96,8 @@ if os.environ.get("VAGS_JAX_TEST_COMPILE_LOG"):
 LONGEST_FIRST = ("stages/test_stages.py", "stages/test_data_parallel.py", "stages/test_vpg_stage.py",
                  "sim/test_warp_parity.py", "sim/test_simulator.py", "ggcnn/test_ggcnn_data.py",
                  "sim/test_clutter.py", "benchmark/test_evaluate.py", "policies/test_viewpoint.py",
-                 "sim/test_push.py", "env/test_env.py", "test_bad_inputs.py", "stages/test_actor_bootstrap.py")
+                 "sim/test_push.py", "env/test_env.py", "test_bad_inputs.py", "test_densenet_speed_bench.py",
+                 "stages/test_actor_bootstrap.py")
 
 
 def pytest_collection_modifyitems(config, items):
