@@ -13,7 +13,8 @@
 # - the ablation (GDNet alone): likewise no more than 1 point below on average;
 # - stage 1's first-quarter success: no more than 2 points below on average;
 # - train.py's wall clock: c below p on the warm pair (37; pair 36's p compiles cold).
-# If a run fails, no default changes.  Files go to this directory (p<S>/, c<S>/).
+# If a run fails, no default changes.  Files go to this directory (p<S>/, c<S>/); tables.py prints the
+# tables and the verdict (checked on a stand-in copy of other runs before this driver ran).
 # Poll with: bash /root/src/bench/results/throughput/actor_clip/poll.sh 560 /root/res/machine_log_pipeline.txt
 S=/root/src
 export PYTHONPATH=/root/vags-site:$S PYTHONUNBUFFERED=1 CUDA_VISIBLE_DEVICES=0
