@@ -615,7 +615,6 @@ def test_the_gate_measure_can_follow_the_moves(runs, programs):
     first = [{k: v[r["attempt"] == 0] for k, v in r.items()} for r in rows.values()]
     for k in first[0]:
         np.testing.assert_array_equal(first[0][k], first[1][k], err_msg=k)
-    differ = False
     for f, r in rows.items():
         for w in np.unique(r["world"]):
             i, j = (np.flatnonzero((r["world"] == w) & (r["attempt"] == a)) for a in (0, 1))
@@ -624,6 +623,7 @@ def test_the_gate_measure_can_follow_the_moves(runs, programs):
                 assert r["objects"][j[0]] == r["objects"][i[0]] - taken, (f, w)
     second = {f: {int(w): r["p_direct"][(r["world"] == w) & (r["attempt"] == 1)]
                   for w in np.unique(r["world"])} for f, r in rows.items()}
+    differ = False
     for w, p in second["direct"].items():
         q = second["moved"].get(w, np.zeros(0))
         differ |= p.size != q.size or (p.size > 0 and not np.array_equal(p, q))
