@@ -75,13 +75,17 @@ def pieces(tmp_path_factory, programs):
     GG-CNN: the "gdnet" close-view planner needs none), and the same pipeline run piece by
     piece: stage 1 for 2 iterations, resumed to 4; stage 2 alone; stage 3 for 2 iterations
     alone, then the pipeline resumed to stage 3's 4 iterations with programs built anew (as by
-    a new train.py process; but the gate table's compiled step) -> {"full": dir, "split": dir, "resume_err": that last call's stderr}."""
+    a new train.py process; but the gate table's compiled step) -> {"full": dir, "split": dir, "resume_err": that last call's stderr,
+    "gate_resets": the (worlds, seed) of each reset of the gate table's first piles in the uninterrupted run}."""
     from vags_jax.stages import driver
 
     root = tmp_path_factory.mktemp("runs")
     full, split = str(root / "full"), str(root / "split")
     base = ["--config", "tiny", "--chunk", "2", "--checkpoint-every", "1", "--quiet"]
-    assert train.main(base + ["--out", full, "--set"] + _overrides(4), programs) == 0
+    resets, reset = [], gate_measure._first_piles  # the gate table's first piles, counted
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(gate_measure, "_first_piles", lambda *a: resets.append(a[2:]) or reset(*a))
+        assert train.main(base + ["--out", full, "--set"] + _overrides(4), programs) == 0
     assert train.main(base + ["--stage", "gdnet", "--out", split, "--set"] + _overrides(2), programs) == 0
     resume = ["--out", split, "--chunk", "2", "--quiet"]
     assert train.main(resume + ["--resume", "--stage", "gdnet", "--set", "stage1.iterations=4"], programs) == 0
@@ -95,7 +99,7 @@ def pieces(tmp_path_factory, programs):
     err = io.StringIO()
     with contextlib.redirect_stderr(err):
         assert train.main(resume + ["--resume", "--set", "stage3.iterations=4"], fresh) == 0
-    return {"full": full, "split": split, "resume_err": err.getvalue()}
+    return {"full": full, "split": split, "resume_err": err.getvalue(), "gate_resets": resets}
 
 
 @pytest.fixture(scope="module")
@@ -387,7 +391,7 @@ def test_precompile_compiles_the_programs_a_resumed_stage_loads(runs, capsys):
         assert code == 2 and message in err and err.count("\n") == 1, (argv, err)
 
 
-def test_the_run_keeps_the_gdnets_whose_gate_table_picks_most(runs, tmp_path):
+def test_the_run_keeps_the_gdnets_whose_gate_table_picks_most(runs, pieces, tmp_path):
     """``vags.stage3_gdnet_pick="rate"``: the pipeline measured the gate table with stage 3's
     GDNet, with stage 2's, and with stage 2's for direct grasps and stage 3's after a move
     ("split"), and kept the one whose table picks most per second (a tie keeps the earlier);
@@ -402,6 +406,7 @@ def test_the_run_keeps_the_gdnets_whose_gate_table_picks_most(runs, tmp_path):
     want = {"stage3": ("stage3 step 4", "stage3 step 4"), "stage2": ("stage2 step 2", "stage2 step 2"),
             "split": ("stage2 step 2", "stage3 step 4")}
     assert {k: (v["gdnet"], v["close_gdnet"]) for k, v in tried.items()} == want
+    assert pieces["gate_resets"] == [(2, 0)], "the three tables start from one reset of the same first piles"
     kept = max(tried, key=lambda k: (tried[k]["rate"], -list(tried).index(k)))
     assert (saved["gdnet"], saved["close_gdnet"]) == want[kept] and saved["networks"] == "stage3 step 4"
     assert saved["rate"] == pytest.approx(tried[kept]["rate"])

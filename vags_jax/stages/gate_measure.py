@@ -170,7 +170,8 @@ def compile_collect(run_cfg, networks, programs=None) -> None:
 
 
 def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=print, programs=None,
-            count_lost=None, gdnet="stage3", follow="direct", estimate=None, close_score=None, direct_score=None):
+            count_lost=None, gdnet="stage3", follow="direct", estimate=None, close_score=None, direct_score=None,
+            piles=None):
     """The gate table of a trained run (stage 3's networks, else stage 2's) -> (GateTable, meta,
     states): ``states`` the (N,) per-state arrays of the live states the table was fit on, with
     each state's ``world`` and ``attempt`` (its index along the pile).
@@ -183,7 +184,8 @@ def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=pri
     run's), recorded as meta["estimate"]; close_score: what scores the grasps after a move
     (``config.Vags.close_score``; None: the run's), recorded as meta["close_score"];
     direct_score: what plans the direct grasps (``config.Vags.direct_score``; None: the run's),
-    recorded as meta["direct_score"]."""
+    recorded as meta["direct_score"]; piles: a dict that keeps the first piles by (worlds, seed),
+    so that calls of one config reset them once (``measure_picked``'s candidates)."""
     if follow not in FOLLOW:
         raise ValueError(f"follow must be one of {FOLLOW}, got {follow!r}")
     run_cfg = checkpoint.load_config(run_dir)
@@ -197,7 +199,10 @@ def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=pri
     stage = cfg.stage3
     env, step = _collect_program(cfg, Programs() if programs is None else programs)
     t0 = time.time()
-    key, state = _first_piles(env, cfg, worlds, seed)
+    piles = {} if piles is None else piles
+    if (worlds, seed) not in piles:  # the collect step does not donate its input: the piles can be reused
+        piles[worlds, seed] = _first_piles(env, cfg, worlds, seed)
+    key, state = piles[worlds, seed]
     parts: dict[str, list] = {}
     for t in range(steps):
         key, k = jax.random.split(key)
@@ -268,9 +273,9 @@ def measure_picked(run_dir: str, log=print, programs=None, **kw):
     success of the direct grasps and after a move."""
     programs = Programs() if programs is None else programs  # every measure shares its compiled step
     picks = pick_candidates(run_dir, checkpoint.load_config(run_dir))
-    best, tried = None, {}
-    for pick in picks:
-        got = measure(run_dir, log=log, programs=programs, gdnet=pick, **kw)
+    best, tried, piles = None, {}, {}
+    for pick in picks:  # the same first piles for every candidate: reset once
+        got = measure(run_dir, log=log, programs=programs, gdnet=pick, piles=piles, **kw)
         table, meta, states = got
         tried[pick] = {"gdnet": meta["gdnet"], "close_gdnet": meta["close_gdnet"], "rate": table.rate,
                        "direct_success": float(np.mean(states["direct_success"])),
