@@ -1,13 +1,16 @@
 #!/usr/bin/env bash
-# Issue 27, prepared 2026-12-06, NOT yet run (a first, one-run version of this file was committed
+# Issue 27, prepared 2026-12-06, NOT run that day (a first, one-run version of this file was committed
 # for the ~12 device minutes left after actor_clip/driver_control.sh; no machine could be started
-# for it, and the tries used the rest of that budget).  For ONE bare H100 (or H200) and a whole
-# 30-minute budget (about 26 minutes with a cold cache): the step actor_clip/driver_control.sh's
-# header asks for before any preset takes stage 1's clipped actor values.
+# for it).  For ONE bare H100 (or H200) and a whole 30-minute budget (about 24 minutes with a cold
+# cache): the step actor_clip/driver_control.sh's header asks for before any preset takes stage 1's
+# clipped actor values.
+# Changed before its first run (2026-12-06, 16:50 UTC, 25 device minutes left after two refused
+# starts): each pair is evaluated as soon as it is trained, two evaluations at once (as in
+# h100_finish/driver.sh), so that a cut budget still leaves a whole first pair.  The rule is unchanged.
 # Two pairs, one after the other on one GPU, from an empty compile cache:
 #   p36 (train.py --config gpu --set seed=36, the preset), c36 (the same with stage1.bootstrap=actor
-#   stage1.bootstrap_clip=true), p37, c37; then each run's VAGS and ablation (groups 1-10 x 50
-#   rounds, seeds 11-13), each evaluation alone on the GPU.
+#   stage1.bootstrap_clip=true), p37, c37; after each pair, each run's VAGS and ablation (groups
+#   1-10 x 50 rounds, seeds 11-13), the run's two evaluations at once on the GPU.
 # Fixed before any run; the preset takes the clip only if all four hold:
 # - VAGS: c's success no more than 1 point below p's, averaged over both pairs and seeds 11-13;
 # - the ablation (GDNet alone): likewise no more than 1 point below on average;
@@ -27,16 +30,19 @@ keep() { mkdir -p $2; for f in config.json metrics.jsonl timings.jsonl summary.j
          for s in stage2 stage3; do [ -f $1/$s/metrics.jsonl ] && cp $1/$s/metrics.jsonl $2/${s}_metrics.jsonl; done; }
 C=/root/cc
 declare -A SET=([p]="" [c]="stage1.bootstrap=actor stage1.bootstrap_clip=true")
+ev() { XLA_PYTHON_CLIENT_PREALLOCATE=false XLA_PYTHON_CLIENT_MEM_FRACTION=0.45 run "$@"; }
+E="--seeds 11,12,13 --cache-dir $C"
 for SEED in 36 37; do
   for K in p c; do
     run train_$K$SEED timeout 600 python train.py --config gpu --set seed=$SEED ${SET[$K]} --out /root/runs/$K$SEED --cache-dir $C --json
     keep /root/runs/$K$SEED $RES/$K$SEED
   done
-done
-E="--seeds 11,12,13 --cache-dir $C"
-for R in p36 c36 p37 c37; do
-  [ -f /root/runs/$R/summary.json ] || continue
-  run vags_$R python eval.py --run /root/runs/$R $E --out "$RES/$R/seed{seed}/eval_vags.json"
-  run abl_$R python eval.py --run /root/runs/$R --no-viewpoint $E --out "$RES/$R/seed{seed}/eval_vags-no-viewpoint.json"
+  for K in p c; do
+    R=$K$SEED
+    [ -f /root/runs/$R/summary.json ] || continue
+    ev vags_$R python eval.py --run /root/runs/$R $E --out "$RES/$R/seed{seed}/eval_vags.json" &
+    ev abl_$R python eval.py --run /root/runs/$R --no-viewpoint $E --out "$RES/$R/seed{seed}/eval_vags-no-viewpoint.json" &
+    wait
+  done
 done
 echo "done $(date +%T)" >> $log
