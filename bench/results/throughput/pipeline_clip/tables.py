@@ -26,6 +26,16 @@ def process_seconds(run):
     return secs[-1] if secs else None
 
 
+def peak_gib(run):
+    """Peak device memory from train.py's --json line in its log, or None."""
+    log = os.path.join(HERE, f"train_{run}.txt")
+    if not os.path.exists(log):
+        return None
+    peaks = [json.loads(line)["peak_device_gib"] for line in open(log)
+             if line.startswith("{") and '"peak_device_gib"' in line]
+    return peaks[-1] if peaks else None
+
+
 def training(run):
     """Stage 1's attempts/s after its first chunk and its first-quarter success; the pipeline's wall."""
     m = load_jsonl(os.path.join(HERE, run, "metrics.jsonl"))
@@ -36,7 +46,7 @@ def training(run):
     first_q = 100 * sum(r["success_rate"] * r["attempts"] for r in part) / sum(r["attempts"] for r in part)
     summary = json.load(open(os.path.join(HERE, run, "summary.json")))
     return {"rate": rate, "first_quarter": first_q, "wall": summary["wall_s"], "process": process_seconds(run),
-            "peak": summary.get("peak_device_gib")}
+            "peak": peak_gib(run)}
 
 
 def benchmark(run, policy):
@@ -57,9 +67,10 @@ def benchmark(run, policy):
 def main():
     runs = [r for _, p, c in PAIRS for r in (p, c)]
     missing = [r for r in runs if not os.path.exists(os.path.join(HERE, r, "summary.json"))]
-    if missing:
-        print(f"driver.sh has not run (no summary for {', '.join(missing)})")
+    if len(missing) == len(runs):
+        print("driver.sh has not run (no run's summary is here)")
         return 0
+    runs = [r for r in runs if r not in missing]
     tr = {r: training(r) for r in runs}
     bm = {(r, k): benchmark(r, k) for r in runs for k in ("vags", "vags-no-viewpoint")}
     print("| training seed | pipeline | train.py process s | pipeline wall s | stage-1 attempts/s | stage-1 first quarter % "
@@ -67,13 +78,16 @@ def main():
     print("|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for seed, p, c in PAIRS:
         for r, name in ((p, "preset"), (c, "clipped actor")):
+            if r in missing:
+                print(f"| {seed} | {name} | not trained | | | | | | | | | |")
+                continue
             t, v, a = tr[r], bm[r, "vags"], bm[r, "vags-no-viewpoint"]
             bench = (f"{v[0]:.1f} | {v[1]:.1f} | {v[2]:.3f}" if v else "not run | | ") + " | " + \
                     (f"{a[0]:.1f} | {a[1]:.1f}" if a else "not run | ")
             print(f"| {seed} | {name} | {t['process']} | {t['wall']:.1f} | {t['rate']:.0f} | {t['first_quarter']:.1f} "
                   f"| {t['peak']} | {bench} |")
-    if any(v is None for v in bm.values()):
-        print("\nVerdict: cannot be applied (a benchmark is missing)")
+    if missing or any(v is None for v in bm.values()):
+        print("\nVerdict: cannot be applied (a run or a benchmark is missing)")
         return 0
 
     def gap(f):
