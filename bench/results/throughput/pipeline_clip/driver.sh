@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# Issue 27, prepared 2026-12-06, NOT run that day (a first, one-run version of this file was committed
-# for the ~12 device minutes left after actor_clip/driver_control.sh; no machine could be started
-# for it).  For ONE bare H100 (or H200) and a whole 30-minute budget (about 24 minutes with a cold
+# Issue 27, prepared 2026-12-06 (a first, one-run version of this file was committed for the ~12
+# device minutes left after actor_clip/driver_control.sh; no machine could be started for it).
+# Ran 2026-12-06, 17:21-17:37 UTC, on one bare H100, as below: pair 36 only (DEADLINE left pair 37
+# out); bench/RESULTS.md, "The whole pipeline with stage 1's clipped actor values".  For ONE bare H100 (or H200) and a whole 30-minute budget (about 24 minutes with a cold
 # cache): the step actor_clip/driver_control.sh's header asks for before any preset takes stage 1's
 # clipped actor values.
 # Changed before its first run (2026-12-06, 17:00 UTC; 22 device minutes left after three refused

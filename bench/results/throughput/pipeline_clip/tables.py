@@ -86,22 +86,28 @@ def main():
                     (f"{a[0]:.1f} | {a[1]:.1f}" if a else "not run | ")
             print(f"| {seed} | {name} | {t['process']} | {t['wall']:.1f} | {t['rate']:.0f} | {t['first_quarter']:.1f} "
                   f"| {t['peak']} | {bench} |")
-    if missing or any(v is None for v in bm.values()):
-        print("\nVerdict: cannot be applied (a run or a benchmark is missing)")
-        return 0
+    done = [(seed, p, c) for seed, p, c in PAIRS
+            if all(r in tr and bm[r, k] is not None for r in (p, c) for k in ("vags", "vags-no-viewpoint"))]
 
     def gap(f):
-        return sum(f(c) - f(p) for _, p, c in PAIRS) / len(PAIRS)
+        return sum(f(c) - f(p) for _, p, c in done) / len(done) if done else float("nan")
 
     vags = gap(lambda r: bm[r, "vags"][0])
     abl = gap(lambda r: bm[r, "vags-no-viewpoint"][0])
     first = gap(lambda r: tr[r]["first_quarter"])
     _, p, c = next(x for x in PAIRS if x[0] == SPEED_PAIR)
-    faster = None if tr[c]["process"] is None or tr[p]["process"] is None else tr[c]["process"] < tr[p]["process"]
-    print(f"\nclipped - preset, mean over pairs: VAGS {vags:+.2f}, ablation {abl:+.2f}, stage 1's first quarter "
-          f"{first:+.2f} points; train.py on pair {SPEED_PAIR}: {tr[c]['process']} against {tr[p]['process']} s")
-    met = vags >= -1.0 and abl >= -1.0 and first >= -2.0 and faster is True
-    print(f"Verdict: {'met' if met else 'not met'}")
+    secs = (tr.get(c, {}).get("process"), tr.get(p, {}).get("process"))
+    faster = None if None in secs else secs[0] < secs[1]
+    pairs = ", ".join(str(seed) for seed, _, _ in done) or "none"
+    print(f"\nclipped - preset, mean over the pairs benchmarked ({pairs}): VAGS {vags:+.2f}, ablation {abl:+.2f}, "
+          f"stage 1's first quarter {first:+.2f} points; train.py on pair {SPEED_PAIR}: {secs[0]} against {secs[1]} s")
+    if faster is False:  # one criterion failed: the rule cannot be met whatever the other pair gives
+        print(f"Verdict: not met (train.py on pair {SPEED_PAIR} is not faster with the clip)")
+    elif len(done) < len(PAIRS):
+        print("Verdict: not yet decided (a pair is missing)")
+    else:
+        met = vags >= -1.0 and abl >= -1.0 and first >= -2.0 and faster is True
+        print(f"Verdict: {'met' if met else 'not met'}")
     return 0
 
 
