@@ -1,6 +1,7 @@
 """``stages/compile_ahead.py`` (train.py --compile-ahead): when the pipeline starts the second
 process, its command line, and the process's life (started once, waited for, a failure only
 warned about, ended on a stop), with stand-in commands instead of the real precompile."""
+import json
 import os
 import sys
 import time
@@ -59,12 +60,26 @@ def test_the_child_is_started_once_waited_for_and_its_report_kept(tmp_path):
 
 def test_a_failed_child_is_a_warning_and_the_pipeline_goes_on(tmp_path):
     lines = []
-    ahead = _child(tmp_path, "import sys; sys.exit(3)", lines)
+    ahead = _child(tmp_path, "import sys; print('RuntimeError: out of memory', flush=True); sys.exit(3)", lines)
     ahead.start()
     got = ahead.finish()
     assert got["status"] == "exit code 3" and "report" not in got
     assert lines[-1].startswith("warning: compile ahead: the second process ended with exit code 3")
+    assert "its last line: 'RuntimeError: out of memory'" in lines[-1]  # why, without opening the log
+    assert got["last_line"] == "RuntimeError: out of memory"  # kept in the run's timings
     assert "stage 2's programs compile when needed" in lines[-1]
+
+
+def test_a_failed_childs_error_is_kept_in_the_runs_timings(tmp_path):
+    """train.py's timings.jsonl row for a failed child carries its last log line."""
+    lines = []
+    ahead = _child(tmp_path, "print('XlaRuntimeError: RESOURCE_EXHAUSTED', flush=True); raise SystemExit(1)", lines)
+    ahead.start()
+    driver._finish_ahead(SimpleNamespace(out=str(tmp_path)), ahead, "compile_ahead", "stage2")
+    with open(os.path.join(str(tmp_path), "timings.jsonl")) as f:
+        row = json.loads(f.read().splitlines()[-1])
+    assert (row["stage"], row["status"]) == ("compile_ahead", "exit code 1")
+    assert row["last_line"] == "XlaRuntimeError: RESOURCE_EXHAUSTED"
 
 
 def test_a_child_that_cannot_start_is_a_warning(tmp_path):

@@ -11,7 +11,7 @@ compiling.  The child runs stage 2's start for real, so the device needs room fo
 of stage 2's worlds (not its replays, which the child only shapes) beside stage 1; the child
 allocates on demand (``XLA_PYTHON_CLIENT_PREALLOCATE=false``).  Whatever happens to the child, the pipeline goes on:
 if it fails, stage 2 compiles its own programs as without it (one warning line naming the
-child's log, ``RUN/compile_ahead.log``).
+child's log, ``RUN/compile_ahead.log``, and quoting its last line).
 
 The rate gate's table, measured after stage 3, has its own program: a second child
 (``--stages gate``, log ``RUN/compile_ahead_gate.log``) compiles it once stage 2's (or, resumed,
@@ -125,8 +125,12 @@ class CompileAhead:
             self.log(f"compile ahead: {self.what} ready after {got['wall_s']} s "
                      f"(waited {got['waited_s']} s for them)")
         else:
+            last = _last_line(self.log_path)
+            if last:
+                got["last_line"] = last
+            said = f", its last line: {last!r}" if last else ""
             self.log(f"warning: compile ahead: the second process ended with exit code {rc} (see "
-                     f"{self.log_path}); {self.what} compile when needed")
+                     f"{self.log_path}{said}); {self.what} compile when needed")
         return got
 
     def close(self) -> None:
@@ -137,6 +141,16 @@ class CompileAhead:
             except subprocess.TimeoutExpired:
                 self.proc.kill()
                 self.proc.wait()
+
+
+def _last_line(path: str, limit: int = 300) -> str:
+    """The child's last non-blank log line (its error, when it failed), cut to ``limit`` characters."""
+    try:
+        with open(path, errors="replace") as f:
+            lines = [ln.strip() for ln in f.read().splitlines() if ln.strip()]
+    except OSError:
+        return ""
+    return lines[-1][:limit] if lines else ""
 
 
 def _last_json_line(path: str) -> Optional[dict]:

@@ -13,6 +13,8 @@
 #   leaves 640 s for it, else in a later session (the rule then waits for it);
 # - each pair is evaluated as soon as it is trained, its runs' two evaluations at once (as in
 #   h100_finish/driver.sh).
+# After that run (for pair 37's): keep() also keeps the compile-ahead children's logs (p36's
+# stage-2 child ended with exit code 1, and its log was not kept).
 # Two pairs on one GPU: p<S> (train.py --config gpu --set seed=S, the preset) and c<S> (the same with
 #   stage1.bootstrap=actor stage1.bootstrap_clip=true), S = 36, 37; each run's VAGS and ablation
 #   (groups 1-10 x 50 rounds, seeds 11-13).
@@ -31,7 +33,7 @@ cd $S
 RES=/root/res; mkdir -p $RES; log=$RES/machine_log_pipeline.txt
 echo "start $(date +%T) $(nvidia-smi --query-gpu=name --format=csv,noheader | tr '\n' ' ')" > $log
 run() { k=$1; shift; t=$(date +%s); "$@" > $RES/$k.txt 2>&1; rc=$?; echo "$k rc=$rc $(( $(date +%s)-t )) s $(date +%T)" >> $log; return $rc; }
-keep() { mkdir -p $2; for f in config.json metrics.jsonl timings.jsonl summary.json gate.json; do cp $1/$f $2/ 2>/dev/null; done
+keep() { mkdir -p $2; for f in config.json metrics.jsonl timings.jsonl summary.json gate.json compile_ahead.log compile_ahead_gate.log; do cp $1/$f $2/ 2>/dev/null; done
          for s in stage2 stage3; do [ -f $1/$s/metrics.jsonl ] && cp $1/$s/metrics.jsonl $2/${s}_metrics.jsonl; done; }
 C=/root/cc
 declare -A SET=([p]="" [c]="stage1.bootstrap=actor stage1.bootstrap_clip=true")
