@@ -23,7 +23,12 @@ from vags_jax import config as C
 from vags_jax.ggcnn import data as ggcnn_data
 from vags_jax.nets.ggcnn import init_ggcnn
 
+from conftest import FAST_PHYSICS
+
+# On conftest's FAST_PHYSICS (boxes, pyramidal cones: the data maker's programs compile faster);
+# every check here holds whatever the contacts are (labels are what re-executed grasps give).
 OVERRIDES = {
+    **C.parse_overrides(FAST_PHYSICS),
     "ggcnn_data.views": 4,
     "ggcnn_data.heldout_views": 2,
     "ggcnn_data.candidates": 4,
@@ -31,7 +36,7 @@ OVERRIDES = {
     "ggcnn.train_steps": 20,
     "ggcnn.batch_size": 4,
 }
-SET = [f"{k}={v}" for k, v in OVERRIDES.items()]
+SET = [f"{k}={v}" for k, v in OVERRIDES.items() if k not in C.parse_overrides(FAST_PHYSICS)] + FAST_PHYSICS
 
 
 @pytest.fixture(scope="module")
