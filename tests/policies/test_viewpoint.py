@@ -21,10 +21,12 @@ TALL, FLAT = 0, 1
 
 @pytest.fixture(scope="module")
 def cfg():
+    # Pyramidal friction cones (conftest's PYRAMIDAL): the grasp programs compile faster, and
+    # these checks hold on either cone.
     return C.replace(C.tiny(), **{
         "scene.shapes": ("cuboid_tall", "cube_half"), "scene.copies_per_shape": 1,
         "scene.max_objects": 2, "stage1.max_objects": 2, "stage2.max_objects": 2, "stage3.max_objects": 2, "scene.placement": "scatter",
-        "scene.colour_jitter": 0.0, "camera.noise.enabled": False,
+        "scene.colour_jitter": 0.0, "camera.noise.enabled": False, "sim.cone": "pyramidal",
     })
 
 
