@@ -118,13 +118,14 @@ TINY_TEST_OVERRIDES = {
 
 
 # Pyramidal friction cones, as train.py --set strings, for the data-parallel checks and the
-# viewpoint and predict tests' scenes of placed blocks (the 2-device chunk compiles about 20 % faster; the 1- and 2-device grasp steps then agree to 1.4e-5 in joint
-# positions, against 3.4e-4 with elliptic cones).  With boxes too they drifted 35 mm in heights.
+# viewpoint and predict tests' scenes of placed blocks (the 2-device chunk compiles about 20 %
+# faster; the 1- and 2-device grasp steps then agree to 1.4e-5 in joint positions, against
+# 3.4e-4 with elliptic cones).  With boxes too they drifted 35 mm in heights.
 PYRAMIDAL = ["sim.cone=pyramidal"]
 
 # Physics whose programs compile about a third faster (boxes only, pyramidal friction cones), for
-# tests whose checks hold whatever the contacts are (the pipeline's and VPG's stages, GG-CNN's dataset).  The physics
-# tests keep the presets' physics (bench/RESULTS.md, "Test suite").
+# tests whose checks hold whatever the contacts are (the pipeline's and VPG's stages, GG-CNN's
+# dataset).  The physics tests keep the presets' physics (bench/RESULTS.md, "Test suite").
 FAST_PHYSICS = ['scene.shapes=["box","box","box"]', *PYRAMIDAL]
 
 

@@ -27,8 +27,9 @@ from conftest import FAST_PHYSICS
 
 # On conftest's FAST_PHYSICS (boxes, pyramidal cones: the data maker's programs compile faster);
 # every check here holds whatever the contacts are (labels are what re-executed grasps give).
+FAST = C.parse_overrides(FAST_PHYSICS)
 OVERRIDES = {
-    **C.parse_overrides(FAST_PHYSICS),
+    **FAST,
     "ggcnn_data.views": 4,
     "ggcnn_data.heldout_views": 2,
     "ggcnn_data.candidates": 4,
@@ -36,7 +37,7 @@ OVERRIDES = {
     "ggcnn.train_steps": 20,
     "ggcnn.batch_size": 4,
 }
-SET = [f"{k}={v}" for k, v in OVERRIDES.items() if k not in C.parse_overrides(FAST_PHYSICS)] + FAST_PHYSICS
+SET = [f"{k}={v}" for k, v in OVERRIDES.items() if k not in FAST] + FAST_PHYSICS  # train.py's --set strings
 
 
 @pytest.fixture(scope="module")
