@@ -205,16 +205,13 @@ def test_decision_picks_each_branch_on_hand_set_q_maps():
     assert np.asarray(g.view).tolist() == [[4, 1], [0, 3], [1, 1]]
 
 
-@pytest.mark.parametrize("planner,region", [("ggcnn", "seen"), ("gdnet", "seen"), ("gdnet", "map")])
-def test_decision_plans_one_or_two_motions(cfg, env, planner, region):
-    """plan_attempt on a hand-made decision: the direct world grasps GDNet's pixel from the
-    global pose (1 motion); the other moves above VANet's pixel first (2 motions) and its
-    approach starts there.  With the "gdnet" close-view planner the grasp after the move is
-    GDNet's argmax among the cells the close view saw (``vags.close_region="seen"``) or on the
-    whole fused map ("map"), at the fused map's height."""
-    from vags_jax.policies.decision import Decision, plan_attempt
+def _one_direct_one_moving(cfg, env):
+    """Two worlds of one block each and a hand-made decision: world 0 moves above its block, world
+    1 grasps directly -> (state, Decision, the blocks' pixels (2, 2), a GDNet stand-in
+    ``(color, height) -> (B, R, H, W)`` whose Q grows toward the heightmap's corner (0, 0) at
+    rotation 2: its argmax over the whole map is (2, 0, 0), outside the close view above the block)."""
+    from vags_jax.policies.decision import Decision
 
-    pcfg = C.replace(cfg, **{"vags.local_planner": planner, "vags.close_region": region})
     xy = np.array([[0.08, -0.05], [-0.06, 0.07]], np.float32)
     pos = np.zeros((2, 2, 3), np.float32)
     pos[:, FLAT, :2], pos[:, FLAT, 2] = xy, 0.0125
@@ -223,12 +220,53 @@ def test_decision_plans_one_or_two_motions(cfg, env, planner, region):
     grasp = jnp.concatenate([jnp.array([[3], [5]], jnp.int32), pixel], 1)
     decision = Decision(direct=jnp.array([False, True]), grasp=grasp, view=pixel, q_max=jnp.array([1.0, 2.0]),
                         score=jnp.array([1.0, 2.0]))
-    params = init_ggcnn(jax.random.PRNGKey(0), size=cfg.ggcnn.input_size)
     H = cfg.workspace.heightmap_px
-    # A GDNet stand-in whose Q grows toward the heightmap's corner (0, 0) at rotation 2: its
-    # argmax over the whole map is (2, 0, 0), outside the close view above the block.
     ramp = (2 * H - jnp.arange(H)[:, None] - jnp.arange(H)[None, :]).astype(jnp.float32)
     gdnet_q = lambda c, h: jnp.zeros((h.shape[0], cfg.net.n_rotations, H, H)).at[:, 2].set(ramp)  # noqa: E731
+    return state, decision, pixel, gdnet_q
+
+
+def test_the_close_pass_runs_on_the_moving_worlds_only(cfg, env):
+    """``net.forward_needed_only``: the grasp after a move is planned by a pass over the worlds
+    that move (here world 0 of 2, in groups of one world), and the attempts are those of the pass
+    over every world."""
+    from vags_jax.policies.decision import plan_attempt, q_in_groups
+
+    state, decision, _, stand_in = _one_direct_one_moving(cfg, env)
+    calls = []
+
+    def one(c, h):
+        jax.debug.callback(lambda: calls.append(1))
+        return stand_in(c, h)
+
+    gdnet_q = q_in_groups(one, 1)
+    plans = {}
+    for only in (False, True):
+        pcfg = C.replace(cfg, **{"vags.local_planner": "gdnet", "net.forward_needed_only": only})
+        calls.clear()
+        plans[only] = plan_attempt(pcfg, env, state, decision, jax.random.PRNGKey(1), gdnet_q)
+        jax.effects_barrier()
+        assert len(calls) == (1 if only else 2)
+    (a0, c0), (a1, c1) = plans[False], plans[True]
+    for f in ("position", "yaw", "start", "motions"):
+        np.testing.assert_array_equal(np.asarray(getattr(a1, f)), np.asarray(getattr(a0, f)))
+    np.testing.assert_array_equal(np.asarray(c1.action[0]), np.asarray(c0.action[0]))
+
+
+@pytest.mark.parametrize("planner,region", [("ggcnn", "seen"), ("gdnet", "seen"), ("gdnet", "map")])
+def test_decision_plans_one_or_two_motions(cfg, env, planner, region):
+    """plan_attempt on a hand-made decision: the direct world grasps GDNet's pixel from the
+    global pose (1 motion); the other moves above VANet's pixel first (2 motions) and its
+    approach starts there.  With the "gdnet" close-view planner the grasp after the move is
+    GDNet's argmax among the cells the close view saw (``vags.close_region="seen"``) or on the
+    whole fused map ("map"), at the fused map's height."""
+    from vags_jax.policies.decision import plan_attempt
+
+    pcfg = C.replace(cfg, **{"vags.local_planner": planner, "vags.close_region": region})
+    state, decision, pixel, gdnet_q = _one_direct_one_moving(cfg, env)
+    grasp = decision.grasp
+    params = init_ggcnn(jax.random.PRNGKey(0), size=cfg.ggcnn.input_size)
+    H = cfg.workspace.heightmap_px
     attempt, close = plan_attempt(pcfg, env, state, decision, jax.random.PRNGKey(1), gdnet_q, params)
     assert np.asarray(attempt.motions).tolist() == [2, 1]
     view = np.asarray(env.viewpoint_pose(state, pixel))[:, :3, 3]

@@ -525,6 +525,11 @@ class Net:
     # Worlds per Q-network forward when VAGS decides for many worlds (stages 2-3, eval): GDNet's
     # rotations of 512 worlds at once need tens of GB of activations.  0: all worlds at once.
     forward_batch: int = 128
+    # Q-network passes only where their result is used, in groups of ``forward_batch`` worlds
+    # (``batching.map_in_groups_where``): stage 1's actor on the worlds that take its greedy action
+    # (not those that explore or reset), and the grasp after a move (stages 2-3, eval) on the
+    # worlds that move.  The actions are the same.  False: every pass over every world.
+    forward_needed_only: bool = False
     # ImageNet initialisation of both DenseNet-121 trunks of GDNet (stage 1) and VANet (stage 2):
     # a torchvision DenseNet-121 state dict the user supplies (.pth / .pt, needs torch; or .npz of
     # the same keys, see vags_jax/nets/pretrained.py).  None: random initialisation.

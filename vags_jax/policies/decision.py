@@ -261,8 +261,21 @@ def decide(q_grasp: jax.Array, q_view: jax.Array, threshold, q_success: Optional
     return Decision(direct=score > threshold, grasp=grasp, view=view, q_max=q_max, score=score)
 
 
+def q_in_groups(one: Callable, group: int) -> Callable:
+    """``one(color, height) -> maps`` -> ``(color, height, need=None) -> maps`` over the worlds in
+    groups of ``group``: every world, or given ``need`` (B,) bool only the needed ones, the
+    others' maps zeros (``batching.map_in_groups_where``)."""
+    def q(color, height, need=None):
+        if need is None:
+            return batching.map_in_groups(one, (color, height), group)
+        return batching.map_in_groups_where(one, (color, height), group, need)
+
+    return q
+
+
 def fused_grasp(color: jax.Array, height: jax.Array, depth: jax.Array, rgb: jax.Array, pose: jax.Array,
-                cam_cfg, ws_cfg, gdnet_q: Callable, anywhere: bool = False, success_q: Optional[Callable] = None):
+                cam_cfg, ws_cfg, gdnet_q: Callable, anywhere: bool = False, success_q: Optional[Callable] = None,
+                need: Optional[jax.Array] = None):
     """The "gdnet" close-view planner's grasp: the close images depth (B, h, w) / rgb (B, h, w, 3)
     taken at pose (B, 4, 4) with camera cam_cfg, fused into the global maps color (B, H, W, 3) /
     height (B, H, W) (``view_fusion``), then the argmax among the cells the close view saw
@@ -270,9 +283,13 @@ def fused_grasp(color: jax.Array, height: jax.Array, depth: jax.Array, rgb: jax.
     (gdnet_q), or, given success_q (``vags.close_score="success"``), of the success net's
     ``half_turn_mean`` -> (action (B, 3) int32 [rotation, row, col], the score maximized there
     (B,) float32, the fused color (B, H, W, 3) and height (B, H, W), seen (B, H, W) bool).
-    gdnet_q / success_q: ``(color, height) -> (B, R, H, W)``; only the one scored is run."""
+    gdnet_q / success_q: ``(color, height) -> (B, R, H, W)``; only the one scored is run.  need:
+    (B,) bool, the worlds whose grasp is used: passed on as the scored callable's third argument
+    (``VagsNets.q_fn``), which may leave the others' maps zeros (their actions are then meaningless)."""
     color, height, seen = view_fusion.fuse_close_view(color, height, depth, rgb, pose, cam_cfg, ws_cfg)
-    score = gdnet_q(color, height) if success_q is None else half_turn_mean(success_q(color, height))
+    q_fn = gdnet_q if success_q is None else success_q
+    q = q_fn(color, height) if need is None else q_fn(color, height, need)
+    score = q if success_q is None else half_turn_mean(q)
     region = jnp.where(seen.any(axis=(1, 2), keepdims=True) & (not anywhere), seen, True)
     action, best = greedy(jnp.where(region[:, None], score, -jnp.inf))
     return action, best, color, height, seen
@@ -280,12 +297,13 @@ def fused_grasp(color: jax.Array, height: jax.Array, depth: jax.Array, rgb: jax.
 
 def close_view_grasp(cfg: Config, env: VagsEnv, state: EnvState, view: jax.Array, key,
                      gdnet_q: Optional[Callable] = None, ggcnn_params=None, ggcnn_model=None,
-                     success_q: Optional[Callable] = None):
+                     success_q: Optional[Callable] = None, need: Optional[jax.Array] = None):
     """Move the camera above view (B, 2) [row, col], take the close image (key: its sensor
     noise) and plan the grasp there with ``cfg.vags.local_planner`` -> (the attempt, 2 motions;
     ``CloseView``).  gdnet_q: ``(color, height) -> (B, R, H, W)`` GDNet's Q ("gdnet");
     success_q: the success net's, scored instead where given (``VagsNets.close_success_q``:
-    ``vags.close_score="success"``); ggcnn_params / ggcnn_model: GG-CNN ("ggcnn")."""
+    ``vags.close_score="success"``); ggcnn_params / ggcnn_model: GG-CNN ("ggcnn"); need: (B,) bool,
+    the worlds whose close grasp is used (``fused_grasp``), or None for all."""
     pose = env.viewpoint_pose(state, view)
     image = env.camera_image(state.sim, pose, key)
     B = state.n_worlds
@@ -294,7 +312,7 @@ def close_view_grasp(cfg: Config, env: VagsEnv, state: EnvState, view: jax.Array
             raise ValueError("the 'gdnet' close-view planner needs GDNet")
         anywhere = cfg.vags.close_region == "map"
         action, _, color, height, seen = fused_grasp(state.color, state.height, image.depth, image.rgb, pose,
-                                                     cfg.camera, cfg.workspace, gdnet_q, anywhere, success_q)
+                                                     cfg.camera, cfg.workspace, gdnet_q, anywhere, success_q, need)
         position, yaw = env.grasp_pose(state.replace(height=height), action[:, 1:], action[:, 0])
         close = CloseView(image=image, color=color, height=height, seen=seen, action=action)
     else:
@@ -310,15 +328,19 @@ def close_view_grasp(cfg: Config, env: VagsEnv, state: EnvState, view: jax.Array
 
 def plan_attempt(cfg: Config, env: VagsEnv, state: EnvState, decision: Decision, key,
                  gdnet_q: Optional[Callable] = None, ggcnn_params=None, ggcnn_model=None,
-                 success_q: Optional[Callable] = None):
+                 success_q: Optional[Callable] = None, acting: Optional[jax.Array] = None):
     """A decision -> (the attempt of every world (``env.Attempt``), ``CloseView``): GDNet's grasp
     from the global view where ``decision.direct``, else the close-view planner's grasp at the
     viewpoint above ``decision.view`` (success_q: ``close_view_grasp``).  Every world takes the
-    close view (one jitted path for all); the direct worlds' close grasps are discarded.  key:
-    the close image's sensor noise."""
+    close view (one jitted path for all); the direct worlds' close grasps are discarded (with
+    ``net.forward_needed_only`` they are not planned: the close pass runs on the moving worlds
+    only, of ``acting`` (B,) bool where given).  key: the close image's sensor noise."""
     pos_d, yaw_d = env.grasp_pose(state, decision.grasp[:, 1:], decision.grasp[:, 0])
+    need = None
+    if cfg.net.forward_needed_only:
+        need = ~decision.direct if acting is None else acting & ~decision.direct
     view_attempt, close = close_view_grasp(cfg, env, state, decision.view, key, gdnet_q, ggcnn_params, ggcnn_model,
-                                           success_q)
+                                           success_q, need)
     attempt = select_attempt(decision.direct, env.direct_attempt(pos_d, yaw_d), view_attempt)
     return attempt.replace(score=decision.score), close
 
@@ -336,10 +358,10 @@ class VagsNets:
         self.ggcnn = GGCNN()
 
     def q_fn(self, net, variables) -> Callable:
-        """``(color, height) -> Q`` of ``net`` (eval mode) over the worlds in groups of
-        ``net.forward_batch`` (GDNet's rotations of many worlds need tens of GB at once)."""
-        one = lambda c, h: net.apply(variables, c, h, False)  # noqa: E731
-        return lambda color, height: batching.map_in_groups(one, (color, height), self.cfg.net.forward_batch)
+        """``(color, height[, need]) -> Q`` of ``net`` (eval mode) over the worlds in groups of
+        ``net.forward_batch`` (GDNet's rotations of many worlds need tens of GB at once); given
+        ``need`` (B,) bool, over those worlds only (``q_in_groups``)."""
+        return q_in_groups(lambda c, h: net.apply(variables, c, h, False), self.cfg.net.forward_batch)
 
     def gdnet_q(self, variables) -> Callable:
         """``(color, height) -> (B, R, H, W)`` GDNet's Q with ``variables`` (eval mode)."""
@@ -392,5 +414,5 @@ __all__ = ["Decision", "CloseView", "greedy", "value_at", "GATE_ESTIMATES", "CLO
            "success_estimate", "success_estimates",
            "gate_score", "update_calibration", "initial_calibration",
            "gate_threshold", "decide",
-           "fused_grasp",
+           "q_in_groups", "fused_grasp",
            "close_view_grasp", "plan_attempt", "VagsNets"]

@@ -47,10 +47,14 @@ def select_grasp(key: jax.Array, q: jax.Array, height: jax.Array, eps, cfg: Expl
     key: PRNG key; q: (B, R, H, W) Q-values; height: (B, H, W) metres; eps: () or (B,).
     Returns ``action (B, 3) int32 [rotation, row, col]`` and ``explored (B,) bool``.
     """
+    return select_grasp_from_greedy(key, greedy_grasp(q), q.shape[1], height, eps, cfg)
+
+
+def greedy_grasp(q: jax.Array) -> jax.Array:
+    """q (B, R, H, W) -> (B, 3) int32 [rotation, row, col] of each world's largest Q."""
     b, r, h, w = q.shape
     greedy_flat = jnp.argmax(q.reshape(b, -1), axis=-1)
-    greedy = jnp.stack(jnp.unravel_index(greedy_flat, (r, h, w)), axis=-1).astype(jnp.int32)
-    return select_grasp_from_greedy(key, greedy, r, height, eps, cfg)
+    return jnp.stack(jnp.unravel_index(greedy_flat, (r, h, w)), axis=-1).astype(jnp.int32)
 
 
 def select_grasp_from_greedy(key: jax.Array, greedy: jax.Array, n_rotations: int, height: jax.Array,
@@ -58,18 +62,22 @@ def select_grasp_from_greedy(key: jax.Array, greedy: jax.Array, n_rotations: int
     """``select_grasp`` given the greedy action (B, 3) [rotation, row, col] instead of the Q
     maps (stages 2 and 3 keep GDNet's argmax, not its (B, R, H, W) maps).  The same draws as
     ``select_grasp`` for the same key.  Returns ``action (B, 3) int32``, ``explored (B,) bool``."""
+    random_action, explored = draw_grasp_exploration(key, n_rotations, height, eps, cfg)
+    return jnp.where(explored[:, None], random_action, greedy).astype(jnp.int32), explored
+
+
+def draw_grasp_exploration(key: jax.Array, n_rotations: int, height: jax.Array, eps, cfg: Exploration):
+    """The draws of ``select_grasp`` that need no Q-value, for the same key: which worlds explore
+    and their random action.  height: (B, H, W) metres; eps: () or (B,).  Returns ``random_action
+    (B, 3) int32 [rotation, row, col]`` and ``explored (B,) bool``; a world that does not explore
+    takes its greedy action, so a caller can leave the exploring worlds' Q-values uncomputed."""
     b, h, w = height.shape
     k_explore, k_pixel, k_rot = jax.random.split(key, 3)
     explored = _explore_mask(k_explore, eps, b)
     pix = jax.vmap(lambda k, hm: _random_pixel(k, hm, cfg))(jax.random.split(k_pixel, b), height)
     x_row, x_col = jnp.unravel_index(pix, (h, w))
     x_rot = jax.random.randint(k_rot, (b,), 0, n_rotations)
-    action = jnp.where(
-        explored[:, None],
-        jnp.stack([x_rot, x_row, x_col], axis=-1),
-        greedy,
-    ).astype(jnp.int32)
-    return action, explored
+    return jnp.stack([x_rot, x_row, x_col], axis=-1).astype(jnp.int32), explored
 
 
 def select_pixel(key: jax.Array, q: jax.Array, height: jax.Array, eps, cfg: Exploration):

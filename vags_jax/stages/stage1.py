@@ -3,7 +3,8 @@
 Stage 1 trains GDNet alone in B parallel worlds of ``stage1.min_objects..max_objects`` objects.
 One *iteration* is, for every world at once:
 
-  1. GDNet (eval mode) on the global heightmaps -> Q (B, R, H, W);
+  1. GDNet (eval mode) on the global heightmaps -> Q (B, R, H, W) (with
+     ``net.forward_needed_only`` only for the worlds that will take the greedy action);
   2. DAES picks an action (B, 3) [rotation, row, col] (``vags_jax.rl.exploration``);
   3. the grasp is simulated (``VagsEnv.step_grasp_or_reset``); reward = 1 on success else 0.
      Worlds whose round ended in the previous iteration (clear, attempt budget used, or a
@@ -33,6 +34,7 @@ import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
+from vags_jax import batching
 from vags_jax.rl import dqn, exploration, replay
 from vags_jax.config import Config
 from vags_jax.parallel import collectives
@@ -60,7 +62,8 @@ class Stage1State:
     attempts: jax.Array
 
 
-# Per-iteration metrics returned by Stage1.run, each of shape (n,).
+# Per-iteration metrics returned by Stage1.run, each of shape (n,).  q_max and q_executed are
+# means over the worlds whose Q maps were computed (``Stage1.act``'s ``valued``).
 METRICS = (
     "success_rate", "explored", "epsilon", "loss", "td_abs", "q_max", "q_executed",
     "rounds_ended", "rounds_cleared", "objects_on_table", "physics_errors", "buffer_overflow",
@@ -102,6 +105,36 @@ class Stage1:
         largest Q, clipped to [0, 1 / (1 - gamma)] with ``stage1.bootstrap_clip``."""
         v = q.reshape(q.shape[0], -1).max(axis=1)
         return v if self.value_cap is None else jnp.clip(v, 0.0, self.value_cap)
+
+    def act(self, learner: dqn.TrainState, s: EnvState, grasped: jax.Array, key: jax.Array, eps):
+        """Steps 1-2 of an iteration: GDNet's Q maps and DAES's actions for the worlds of ``s``
+        (``grasped`` (B,) bool: the worlds that grasp, not reset, this iteration).  Returns
+        ``action (B, 3) int32``, ``explored (B,) bool``, ``q (B, R, H, W)`` and ``valued (B,)
+        bool``, the worlds whose Q maps were computed (the others' are zeros)."""
+        cfg = self.cfg
+        random_action, explored = exploration.draw_grasp_exploration(key, cfg.net.n_rotations, s.height, eps,
+                                                                     cfg.exploration)
+        valued = self._valued(grasped, explored)
+        q = self._q_maps({"params": learner.params, "batch_stats": learner.batch_stats}, s, valued)
+        action = jnp.where(explored[:, None], random_action, exploration.greedy_grasp(q))
+        return action, explored, q, valued
+
+    def _valued(self, grasped: jax.Array, explored: jax.Array) -> jax.Array:
+        """(B,) bool: the worlds whose Q maps this iteration uses.  Every world unless
+        ``net.forward_needed_only``; with it, the grasping worlds that take the greedy action
+        (with ``bootstrap = "actor"`` every grasping world: its largest Q is a stored value)."""
+        if not self.cfg.net.forward_needed_only:
+            return jnp.ones_like(grasped)
+        return grasped if self.actor_bootstrap else grasped & ~explored
+
+    def _q_maps(self, variables, s: EnvState, valued: jax.Array) -> jax.Array:
+        """GDNet (eval mode) on the worlds' heightmaps -> (B, R, H, W): one pass over every world,
+        or with ``net.forward_needed_only`` over the ``valued`` worlds only, in groups of
+        ``net.forward_batch`` (zeros for the others)."""
+        apply = lambda c, h: self._apply(variables, c, h, False)  # noqa: E731
+        if not self.cfg.net.forward_needed_only:
+            return apply(s.color, s.height)
+        return batching.map_in_groups_where(apply, (s.color, s.height), self.cfg.net.forward_batch, valued)
 
     def _n_objects(self, key: jax.Array, n_worlds: int) -> jax.Array:
         s = self.cfg.stage1
@@ -171,9 +204,9 @@ class Stage1:
                                                  for k in (k_act, k_grasp, k_n, k_reset, k_learn))
         s = state.env
         eps = exploration.epsilon(state.iteration, cfg.exploration)
-        variables = {"params": state.learner.params, "batch_stats": state.learner.batch_stats}
-        q = self._apply(variables, s.color, s.height, False)  # (B, R, H, W)
-        action, explored = exploration.select_grasp(k_act, q, s.height, eps, cfg.exploration)
+        resetting = env.round_over(s) | s.sim.error  # rounds that ended last iteration
+        grasped = ~resetting
+        action, explored, q, valued = self.act(state.learner, s, grasped, k_act, eps)
         q_exec = dqn.q_at_action(q, action)
         buffer = state.replay
         if self.actor_bootstrap:  # last iteration's transitions get their next state's value
@@ -182,8 +215,6 @@ class Stage1:
         noise_key = k_grasp if cfg.camera.noise.enabled else None
         # Grasps of the playing worlds and new scenes of the worlds whose round ended, in one
         # physics loop, then ONE render of all worlds.
-        resetting = env.round_over(s) | s.sim.error  # rounds that ended last iteration
-        grasped = ~resetting
         s2, result = env.step_grasp_or_reset(s, action[:, 1:], action[:, 0], resetting, k_reset,
                                              self._n_objects(k_n, s.n_worlds), observe=False)
         s2 = env.with_observation(s2, noise_key)
@@ -198,6 +229,7 @@ class Stage1:
         total = lambda x: collectives.total(x, ax)  # noqa: E731
         mean = lambda x: collectives.mean(x, ax)  # noqa: E731
         n_grasped = total(grasped.sum())
+        n_valued = jnp.maximum(total(valued.sum()), 1)
         attempts = state.attempts + n_grasped
         metrics = {
             "success_rate": total(reward.sum()) / jnp.maximum(n_grasped, 1),
@@ -205,8 +237,8 @@ class Stage1:
             "epsilon": jnp.asarray(eps, jnp.float32),
             "loss": loss,
             "td_abs": td_abs,
-            "q_max": mean(q.reshape(q.shape[0], -1).max(axis=1).mean()),
-            "q_executed": mean(q_exec.mean()),
+            "q_max": total(jnp.where(valued, q.reshape(q.shape[0], -1).max(axis=1), 0.0).sum()) / n_valued,
+            "q_executed": total(jnp.where(valued, q_exec, 0.0).sum()) / n_valued,
             "rounds_ended": total((over & grasped).sum()),
             "rounds_cleared": total(cleared.sum()),
             "objects_on_table": mean(env.n_remaining(s2).mean()),

@@ -58,7 +58,7 @@ from vags_jax import batching
 from vags_jax.rl import dqn, exploration, replay
 from vags_jax.config import Config, Stage, Vags, replace, without_iterations
 from vags_jax.policies.decision import (Decision, gate_score, gate_threshold, greedy, initial_calibration, plan_attempt,
-                                        update_calibration, value_at)
+                                        q_in_groups, update_calibration, value_at)
 from vags_jax.env import EnvState, VagsEnv
 from vags_jax.nets import initial_variables, make_qnet, nbv_net
 from vags_jax.nets.ggcnn import GGCNN
@@ -197,9 +197,9 @@ class VagsStage:
         return batching.map_in_groups(fn, args, self.cfg.net.forward_batch)
 
     def _gdnet_q(self, ts: dqn.TrainState):
-        """``(color, height) -> (B, R, H, W)`` the learner's Q (eval mode), in world groups."""
-        one = lambda c, h: self._apply_gdnet(self._vars(ts), c, h, False)  # noqa: E731
-        return lambda color, height: self._in_groups(one, color, height)
+        """``(color, height[, need]) -> (B, R, H, W)`` the learner's Q (eval mode), in world groups
+        (``decision.q_in_groups``)."""
+        return q_in_groups(lambda c, h: self._apply_gdnet(self._vars(ts), c, h, False), self.cfg.net.forward_batch)
 
     def close_success_q(self, success: dqn.TrainState):
         """What scores the grasps after a move besides GDNet (``plan_attempt``'s success_q): the
@@ -329,12 +329,11 @@ class VagsStage:
             view, v_explored = grasp[:, 1:], g_explored
         decision, p_direct, p_view = self._decision(state, q_view, grasp, view, flags.stage3)
         direct = decision.direct
-        attempt, close = plan_attempt(cfg, env, s, decision, k_img, self._gdnet_q(state.gdnet), state.ggcnn,
-                                      self.ggcnn, self.close_success_q(state.success))
-
         extra = st.max_attempts_extra
         resetting = env.round_over(s, extra) | s.sim.error  # rounds that ended last iteration
         acting = ~resetting
+        attempt, close = plan_attempt(cfg, env, s, decision, k_img, self._gdnet_q(state.gdnet), state.ggcnn,
+                                      self.ggcnn, self.close_success_q(state.success), acting)
         s2, result = env.step_attempt_or_reset(s, attempt, resetting, k_reset, self._n_objects(k_n, B),
                                                observe=False)
         s2 = env.with_observation(s2, k_obs if cfg.camera.noise.enabled else None)
