@@ -10,6 +10,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 RUNS = (("e38", "preset"), ("n38", "forward_needed_only"))
 STAGES = (("stage1", "metrics.jsonl"), ("stage2", "stage2_metrics.jsonl"), ("stage3", "stage3_metrics.jsonl"))
 EVAL_SEEDS = (11, 12, 13)
+CHUNK_GAP = 1.0  # s: rows closer than this in wall_s belong to one chunk
 
 
 def load_jsonl(path):
@@ -21,19 +22,30 @@ def after_first_chunk(rows):
     """Milliseconds per iteration after the stage's first chunk, and the attempts/s over them, or
     None (one chunk).  A row's wall_s is the stage's clock at the end of its chunk, the same for
     the chunk's rows (chunks may differ in length)."""
-    ends = sorted({r["wall_s"] for r in rows})
-    if len(ends) < 2:
+    first = first_chunk_end(rows)
+    later = [r for r in rows if r["wall_s"] > first + CHUNK_GAP]
+    if not later:
         return None
-    later = [r for r in rows if r["wall_s"] > ends[0]]
-    secs = ends[-1] - ends[0]
+    secs = max(r["wall_s"] for r in rows) - first
     return 1000 * secs / len(later), sum(r["attempts"] for r in later) / secs
+
+
+def first_chunk_end(rows):
+    """The stage's clock at the end of its first chunk: the rows of one chunk are written within
+    a fraction of a second of each other (not always at one clock reading), chunks seconds apart."""
+    end = rows[0]["wall_s"]
+    for r in rows[1:]:
+        if r["wall_s"] > end + CHUNK_GAP:
+            break
+        end = r["wall_s"]
+    return end
 
 
 def iterations_after_first_chunk(run, stage):
     """Iterations of ``stage`` after its first chunk in ``run``."""
     rows = load_jsonl(os.path.join(HERE, run, dict(STAGES)[stage]))
-    first = min(r["wall_s"] for r in rows)
-    return sum(1 for r in rows if r["wall_s"] > first)
+    first = first_chunk_end(rows)
+    return sum(1 for r in rows if r["wall_s"] > first + CHUNK_GAP)
 
 
 def quarters(rows):
@@ -77,7 +89,7 @@ def main():
             rows = load_jsonl(path)
             got = after_first_chunk(rows)
             speed[r, stage] = got
-            n = len({row["wall_s"] for row in rows})
+            n = 1 + sum(1 for a, b in zip(rows, rows[1:]) if b["wall_s"] > a["wall_s"] + CHUNK_GAP)
             print(f"| {name} | {stage} | {n} | " + (f"{got[0]:.1f} | {got[1]:.0f} |" if got else "| |"))
     print("\n| run | stage 1 success % by quarter | VAGS % | VAGS 6-10 % | motions | ablation % | ablation 6-10 % |")
     print("|---|---|---:|---:|---:|---:|---:|")
