@@ -1,5 +1,6 @@
 """``net.forward_needed_only``: stage 1's actor runs GDNet only on the worlds that take its greedy
-action, and acts as the pass over every world does."""
+action, and acts as the pass over every world does.  (The pipeline's tests, stages/test_stages.py,
+train with it on.)"""
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -67,10 +68,3 @@ def test_the_needed_only_actor_takes_the_same_actions(stages, bootstrap):
         seen.add(int(want.sum()))
     if bootstrap == "target_network":
         assert len(seen) > 1  # the draws varied which worlds made a pass
-
-
-def test_a_needed_only_chunk_runs(stages):
-    _, needed = stages
-    state, m = needed.run(needed.init(jax.random.PRNGKey(6)), 2)
-    assert int(state.iteration) == 2 and np.isfinite(np.asarray(m["q_max"])).all()
-    assert int(m["physics_errors"].sum()) == 0

@@ -38,8 +38,11 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 # Stages 2 and 3 as small as stage 1 (2 worlds of 1-2 objects), and the gate table on as many
 # piles, so that its reset is the stages' compiled one.  All on conftest's FAST_PHYSICS: these
 # tests check the pipeline's mechanics (resumes bit for bit, hand-overs, reports), not the contacts.
+# Q-network passes where used only, as the `gpu` preset (groups of one world: the skipped groups
+# are exercised; tests/stages/test_forward_needed_only.py checks the actions against the full pass).
 VAGS_OVERRIDES = {**{f"stage{n}.{k}": v for n in (2, 3) for k, v in
-                     (("n_worlds", 2), ("max_objects", 2), ("learning_starts", 2))}, "gate_table.worlds": 2}
+                     (("n_worlds", 2), ("max_objects", 2), ("learning_starts", 2))}, "gate_table.worlds": 2,
+                  "net.forward_needed_only": "true", "net.forward_batch": 1}
 
 
 def _overrides(iterations, stage2=2, stage3=4):

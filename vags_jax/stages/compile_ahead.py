@@ -9,7 +9,9 @@ child process, ``python -m vags_jax.stages.precompile --run RUN --stages stage2`
 2's start and chunk program into the same compile cache.  Stage 2 then loads them instead of
 compiling.  The child runs stage 2's start for real, so the device needs room for a second copy
 of stage 2's worlds (not its replays, which the child only shapes) beside stage 1; the child
-allocates on demand (``XLA_PYTHON_CLIENT_PREALLOCATE=false``).  Whatever happens to the child, the pipeline goes on:
+allocates on demand (``XLA_PYTHON_CLIENT_PREALLOCATE=false``); on an H100, beside train.py's
+preallocated pool, it has run out of device memory when it loaded stage 2's start from the cache
+(bench/RESULTS.md, "Q-network passes only where their result is used").  Whatever happens to the child, the pipeline goes on:
 if it fails, stage 2 compiles its own programs as without it (one warning line naming the
 child's log, ``RUN/compile_ahead.log``, and quoting its last line).
 

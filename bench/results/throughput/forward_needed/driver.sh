@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Issue 27: Q-network passes only where their result is used (net.forward_needed_only), against the
 # `gpu` preset, on ONE bare H100 (or H200) in one session (about 17 minutes after the wheels).
+# Ran 2026-12-06, 19:22-19:37 UTC, on one bare H100, as below (bench/RESULTS.md, "Q-network passes
+# only where their result is used").
 # Two whole pipelines of the same seed, one after the other: e38 (the preset; it compiles from an
 # empty cache) and n38 (the same with net.forward_needed_only=true: its stage programs compile anew,
 # Warp's kernels are cached).  The speed figure is each stage's milliseconds per iteration after its first chunk

@@ -6,6 +6,8 @@
 # from an empty cache), then net.forward_needed_only=true (s_n38, its chunk program compiled anew),
 # then the preset again on a warm cache (s_e38w) if DEADLINE (epoch seconds) leaves 150 s for it.
 # The figure: milliseconds per iteration after the first chunk (tables_stage1.py).
+# Ran 2026-12-06, 19:39-19:47 UTC, on a fresh H100 (DEADLINE left room for all three runs).
+# Poll with: bash /root/src/bench/results/throughput/forward_needed/poll.sh 580 /root/res/machine_log_stage1.txt
 S=/root/src
 export PYTHONPATH=/root/vags-site:$S PYTHONUNBUFFERED=1 CUDA_VISIBLE_DEVICES=0
 unset JAX_COMPILATION_CACHE_DIR
