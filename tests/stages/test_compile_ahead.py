@@ -70,6 +70,24 @@ def test_a_failed_child_is_a_warning_and_the_pipeline_goes_on(tmp_path):
     assert "stage 2's programs compile when needed" in lines[-1]
 
 
+def test_a_child_out_of_device_memory_is_named_as_such(tmp_path):
+    """A child whose log reports running out of device memory, before a last line that does not
+    (as on an H100: Warp then fails to load a module), is named as out of memory; another error is not."""
+    lines = []
+    oom = ("print('E cuda_executor.cc] Failed to allocate device memory: CUDA_ERROR_OUT_OF_MEMORY'); "
+           "print('Exception: Failed to load CUDA module', flush=True); raise SystemExit(1)")
+    ahead = _child(tmp_path, oom, lines)
+    ahead.start()
+    got = ahead.finish()
+    assert got["out_of_memory"] and got["last_line"] == "Exception: Failed to load CUDA module"
+    assert "it ran out of device memory" in lines[-1] and "preallocated pool" in lines[-1]
+    lines.clear()
+    other = _child(tmp_path, "print('ValueError: bad config', flush=True); raise SystemExit(1)", lines)
+    other.start()
+    got = other.finish()
+    assert "out_of_memory" not in got and "device memory" not in lines[-1]
+
+
 def test_a_failed_childs_error_is_kept_in_the_runs_timings(tmp_path):
     """train.py's timings.jsonl row for a failed child carries its last log line."""
     lines = []
@@ -79,7 +97,7 @@ def test_a_failed_childs_error_is_kept_in_the_runs_timings(tmp_path):
     with open(os.path.join(str(tmp_path), "timings.jsonl")) as f:
         row = json.loads(f.read().splitlines()[-1])
     assert (row["stage"], row["status"]) == ("compile_ahead", "exit code 1")
-    assert row["last_line"] == "XlaRuntimeError: RESOURCE_EXHAUSTED"
+    assert row["last_line"] == "XlaRuntimeError: RESOURCE_EXHAUSTED" and row["out_of_memory"] is True
 
 
 def test_a_child_that_cannot_start_is_a_warning(tmp_path):

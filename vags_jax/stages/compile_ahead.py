@@ -131,6 +131,10 @@ class CompileAhead:
             if last:
                 got["last_line"] = last
             said = f", its last line: {last!r}" if last else ""
+            if _ran_out_of_memory(self.log_path):
+                got["out_of_memory"] = True
+                said += ("; it ran out of device memory: beside train.py, which holds JAX's preallocated pool "
+                         "(75 % of the card unless XLA_PYTHON_CLIENT_MEM_FRACTION says otherwise), too little was left")
             self.log(f"warning: compile ahead: the second process ended with exit code {rc} (see "
                      f"{self.log_path}{said}); {self.what} compile when needed")
         return got
@@ -153,6 +157,20 @@ def _last_line(path: str, limit: int = 300) -> str:
     except OSError:
         return ""
     return lines[-1][:limit] if lines else ""
+
+
+OUT_OF_MEMORY = ("CUDA_ERROR_OUT_OF_MEMORY", "RESOURCE_EXHAUSTED", "out of memory")
+
+
+def _ran_out_of_memory(path: str) -> bool:
+    """Whether the child's log reports running out of device memory anywhere (its last line may
+    be a later error it caused, e.g. Warp failing to load a module)."""
+    try:
+        with open(path, errors="replace") as f:
+            text = f.read()
+    except OSError:
+        return False
+    return any(marker in text for marker in OUT_OF_MEMORY)
 
 
 def _last_json_line(path: str) -> Optional[dict]:

@@ -657,7 +657,7 @@ def _finish_ahead(args, child: compile_ahead.CompileAhead, row: str, part: str) 
     """Waits for a compile-ahead child and logs it in timings.jsonl as ``row`` (``part``: the
     key of its report whose compile counts the row keeps)."""
     got = child.finish()
-    extra = {"last_line": got["last_line"]} if "last_line" in got else {}  # a failed child's error
+    extra = {k: got[k] for k in ("last_line", "out_of_memory") if k in got}  # a failed child's error
     log_timing(args.out, row, 0, 1 if got["status"] == "done" else 0, got.get("wall_s", 0.0), got["status"],
                (got.get("report") or {}).get(part, {}).get("compile"), waited_s=got.get("waited_s", 0.0), **extra)
 
