@@ -10,7 +10,8 @@ iteration's time goes, and the DQN update's model FLOP utilisation in bf16.
 1. Whole iterations: ``Stage1.run`` (one jitted scan, as train.py runs it) on a replay already
    holding ``learning_starts`` transitions; attempts/s = grasp attempts / wall clock.
 2. Phases of one iteration, each jitted alone on the same arrays and timed on its own:
-   GDNet's forward pass over every rotation + DAES's choice; the grasp physics (no render);
+   GDNet's forward pass over every rotation + DAES's choice (``Stage1.act``: with
+   ``net.forward_needed_only`` on the worlds that do not explore, at the state's epsilon); the grasp physics (no render);
    rendering + heightmaps of every world; adding to replay; replay sampling (x updates per
    iteration); the DQN updates on a fixed batch (x updates per iteration).  "rest of the
    iteration" is the whole iteration minus their sum (what fusion hides shows up negative).
@@ -167,15 +168,14 @@ def phases(st, state, reps: int) -> dict:
     cfg, env = st.cfg, st.env
     s1 = cfg.stage1
     s = state.env
-    variables = {"params": state.learner.params, "batch_stats": state.learner.batch_stats}
     key = jax.random.PRNGKey(7)
     eps = exploration.epsilon(state.iteration, cfg.exploration)
+    every = jnp.ones((s.n_worlds,), bool)
 
-    def forward(v, s):
-        q = st._apply(v, s.color, s.height, False)
-        return exploration.select_grasp(key, q, s.height, eps, cfg.exploration)[0]
+    def forward(learner, s):  # as the stage acts: with net.forward_needed_only, the greedy worlds only
+        return st.act(learner, s, every, key, eps)[0]
 
-    action = jax.jit(forward)(variables, s)
+    action = jax.jit(forward)(state.learner, s)
     none = jnp.zeros((s.n_worlds,), bool)
     n_obj = jnp.full((s.n_worlds,), s1.min_objects, jnp.int32)
     physics = jax.jit(lambda s, a: env.step_grasp_or_reset(s, a[:, 1:], a[:, 0], none, key, n_obj, observe=False)[0])
@@ -191,7 +191,7 @@ def phases(st, state, reps: int) -> dict:
     updates = jax.jit(lambda ts: jax.lax.scan(lambda c, _: (st.update(c, batch, w)[0], None), ts, None,
                                               length=s1.updates_per_iteration)[0])
     return {
-        "forward_and_choice_s": timed(jax.jit(forward), variables, s, reps=reps),
+        "forward_and_choice_s": timed(jax.jit(forward), state.learner, s, reps=reps),
         "physics_s": timed(physics, s, action, reps=reps),
         "render_heightmaps_s": timed(render, s2, reps=reps),
         "replay_add_s": timed(add, state.replay, trans, reps=reps),
