@@ -120,18 +120,19 @@ class CompileAhead:
         rc = self.proc.wait()
         got = {"wall_s": round(time.time() - self.t0, 1), "waited_s": round(time.time() - tw, 1),
                "status": "done" if rc == 0 else f"exit code {rc}"}
-        report = _last_json_line(self.log_path)
+        text = _read(self.log_path)
+        report = _last_json_line(text)
         if report is not None:
             got["report"] = report
         if rc == 0:
             self.log(f"compile ahead: {self.what} ready after {got['wall_s']} s "
                      f"(waited {got['waited_s']} s for them)")
         else:
-            last = _last_line(self.log_path)
+            last = _last_line(text)
             if last:
                 got["last_line"] = last
             said = f", its last line: {last!r}" if last else ""
-            if _ran_out_of_memory(self.log_path):
+            if any(marker in text for marker in OUT_OF_MEMORY):  # its last line may be a later error it caused
                 got["out_of_memory"] = True
                 said += ("; it ran out of device memory: beside train.py, which holds JAX's preallocated pool "
                          "(75 % of the card unless XLA_PYTHON_CLIENT_MEM_FRACTION says otherwise), too little was left")
@@ -149,36 +150,31 @@ class CompileAhead:
                 self.proc.wait()
 
 
-def _last_line(path: str, limit: int = 300) -> str:
-    """The child's last non-blank log line (its error, when it failed), cut to ``limit`` characters."""
+def _read(path: str) -> str:
+    """The child's log ("" if it cannot be read)."""
     try:
         with open(path, errors="replace") as f:
-            lines = [ln.strip() for ln in f.read().splitlines() if ln.strip()]
+            return f.read()
     except OSError:
         return ""
+
+
+def _last_line(text: str, limit: int = 300) -> str:
+    """The log's last non-blank line (the child's error, when it failed), cut to ``limit`` characters."""
+    lines = [ln.strip() for ln in text.splitlines() if ln.strip()]
     return lines[-1][:limit] if lines else ""
 
 
+# What the child's log says when it ran out of device memory (e.g. before Warp failed to load a module).
 OUT_OF_MEMORY = ("CUDA_ERROR_OUT_OF_MEMORY", "RESOURCE_EXHAUSTED", "out of memory")
 
 
-def _ran_out_of_memory(path: str) -> bool:
-    """Whether the child's log reports running out of device memory anywhere (its last line may
-    be a later error it caused, e.g. Warp failing to load a module)."""
+def _last_json_line(text: str) -> Optional[dict]:
+    """The log's last line that starts with "{" as JSON (precompile's report), or None."""
+    lines = [ln for ln in text.splitlines() if ln.startswith("{")]
     try:
-        with open(path, errors="replace") as f:
-            text = f.read()
-    except OSError:
-        return False
-    return any(marker in text for marker in OUT_OF_MEMORY)
-
-
-def _last_json_line(path: str) -> Optional[dict]:
-    try:
-        with open(path) as f:
-            lines = [ln for ln in f.read().splitlines() if ln.startswith("{")]
         return json.loads(lines[-1]) if lines else None
-    except (OSError, ValueError):
+    except ValueError:
         return None
 
 
