@@ -8,10 +8,12 @@ has run (Warp's kernels then sit in the on-disk cache, and stage 1's own compili
 child process, ``python -m vags_jax.stages.precompile --run RUN --stages stage2``, builds stage
 2's start and chunk program into the same compile cache.  Stage 2 then loads them instead of
 compiling.  The child runs stage 2's start for real, so the device needs room for a second copy
-of stage 2's worlds (not its replays, which the child only shapes) beside stage 1; the child
-allocates on demand (``XLA_PYTHON_CLIENT_PREALLOCATE=false``); on an H100, beside train.py's
-preallocated pool, it has run out of device memory when it loaded stage 2's start from the cache
-(bench/RESULTS.md, "Q-network passes only where their result is used").  Whatever happens to the child, the pipeline goes on:
+of stage 2's worlds (not its replays, which the child only shapes) beside stage 1.  The child
+takes device memory buffer by buffer and gives it back (``XLA_PYTHON_CLIENT_ALLOCATOR=platform``):
+with JAX's growing pool instead (``XLA_PYTHON_CLIENT_PREALLOCATE=false`` alone) its next region
+was 16 GiB, and on an H100 beside train.py's pool the attempt left too little for Warp to load
+its kernels (bench/RESULTS.md, "Q-network passes only where their result is used").  The slow
+allocator costs the child little: it runs stage 2's start once.  Whatever happens to the child, the pipeline goes on:
 if it fails, stage 2 compiles its own programs as without it (one warning line naming the
 child's log, ``RUN/compile_ahead.log``, and quoting its last line).
 
@@ -40,6 +42,8 @@ from vags_jax import compile_cache
 
 MODES = ("auto", "on", "off")
 LOG_FILE = "compile_ahead.log"
+# The child's device memory: exactly what its buffers need, returned when freed (module docstring).
+CHILD_ALLOCATOR = {"XLA_PYTHON_CLIENT_PREALLOCATE": "false", "XLA_PYTHON_CLIENT_ALLOCATOR": "platform"}
 GATE_LOG_FILE = "compile_ahead_gate.log"
 
 
@@ -96,7 +100,7 @@ class CompileAhead:
     def start(self) -> None:
         if self.proc is not None:
             return
-        env = {**os.environ, "XLA_PYTHON_CLIENT_PREALLOCATE": "false"}
+        env = {**os.environ, **CHILD_ALLOCATOR}
         self.t0 = time.time()
         try:
             with open(self.log_path, "w") as out:
