@@ -149,14 +149,15 @@ _CUT_AFTER = {**{f"denseblock{b}": f"block{b}" for b in (1, 2, 3, 4)}, **{f"tran
 
 
 def folded_forward(v, x, dtype, buffer: bool = False, s2d: bool = False, dot: bool = False,
-                   pool_first: bool = False, upto: str = "block4"):
+                   pool_first: bool = False, upto: str = "block4", blocks=densenet.BLOCK_CONFIG):
     """DenseNet-121 eval mode, BatchNorms after convolutions folded (module docstring for the
-    options); ``upto``: the result at that cut (``CUTS``)."""
+    options); ``upto``: the result at that cut (``CUTS``); ``blocks``: dense layers per block
+    (the module's ``block_config``)."""
     x = stem(v, x, dtype, s2d)
     if upto == "stem":
         return x
     channels = densenet.INIT_FEATURES
-    for b, n_layers in enumerate(densenet.BLOCK_CONFIG):
+    for b, n_layers in enumerate(blocks):
         block = f"denseblock{b + 1}"
         width = channels + n_layers * densenet.GROWTH
         if buffer:
@@ -171,7 +172,7 @@ def folded_forward(v, x, dtype, buffer: bool = False, s2d: bool = False, dot: bo
             for i in range(n_layers):
                 x = jnp.concatenate([x, _dense_layer(v, block, i, x, dot)], axis=-1)
         channels = width
-        if b != len(densenet.BLOCK_CONFIG) - 1:
+        if b != len(blocks) - 1:
             if upto == f"block{b + 1}":
                 return x
             x = _transition(v, f"transition{b + 1}", x, dot, pool_first)
@@ -232,12 +233,21 @@ def main(argv=None) -> int:
                         "folded_buffer, folded_s2d, folded_s2d_dot, folded_s2d_poolfirst, folded_s2d_pooldot, "
                         + ", ".join(f"upto_{c}" for c in CUTS) + " (checked against the module's result at the cut), "
                         "stem, stem_s2d (stem first: checked against it); the module docstring says what each is")
+    p.add_argument("--blocks", default=",".join(map(str, densenet.BLOCK_CONFIG)),
+                   help="dense layers in each of the 4 blocks (default: DenseNet-121's); fewer make a quick "
+                        "check of the forms, as the test suite's")
     p.add_argument("--out", default=None)
     args = p.parse_args(argv)
+    try:
+        blocks = tuple(int(b) for b in args.blocks.split(","))
+    except ValueError:
+        blocks = ()
+    if len(blocks) != 4 or min(blocks) < 1:
+        p.error(f"--blocks takes 4 positive integers, comma-separated (DenseNet-121: 6,12,24,16), got {args.blocks!r}")
     if args.px % 32:
         raise SystemExit(f"--px must be a multiple of 32 (DenseNet-121's stride), got {args.px}")
     dtype = jnp.dtype(args.dtype)
-    net = densenet.DenseNet121(dtype=dtype)
+    net = densenet.DenseNet121(dtype=dtype, block_config=blocks)
     # He-normal kernels (init_variables: no compile of flax's init), and running statistics away
     # from (0, 1), so that the check covers BatchNorm's arithmetic.
     shapes = jax.eval_shape(lambda k: net.init(k, jnp.zeros((1, args.px, args.px, 3)), False), jax.random.PRNGKey(0))
@@ -246,16 +256,17 @@ def main(argv=None) -> int:
         lambda s: s + 0.1 * jax.random.uniform(jax.random.PRNGKey(1), s.shape), bs))(v["batch_stats"])}
     on_gpu = jax.devices()[0].platform == "gpu"
     peak = matmul_peak(8192 if on_gpu else 512)
-    print(f"device: {jax.devices()[0].device_kind}; DenseNet-121 eval, {args.dtype}, inputs {args.px} x {args.px}; "
+    arch = "DenseNet-121" if blocks == densenet.BLOCK_CONFIG else f"DenseNet, blocks {args.blocks}"
+    print(f"device: {jax.devices()[0].device_kind}; {arch} eval, {args.dtype}, inputs {args.px} x {args.px}; "
           f"bf16 matmul peak {peak / 1e12:.1f} TFLOP/s", flush=True)
     all_forms = {"module": lambda v, x: net.apply(v, x, False),
-                 "folded": lambda v, x: folded_forward(v, x, dtype),
-                 "folded_buffer": lambda v, x: folded_forward(v, x, dtype, buffer=True),
-                 "folded_s2d": lambda v, x: folded_forward(v, x, dtype, s2d=True),
-                 "folded_s2d_dot": lambda v, x: folded_forward(v, x, dtype, s2d=True, dot=True),
-                 "folded_s2d_poolfirst": lambda v, x: folded_forward(v, x, dtype, s2d=True, pool_first=True),
-                 "folded_s2d_pooldot": lambda v, x: folded_forward(v, x, dtype, s2d=True, dot=True, pool_first=True),
-                 **{f"upto_{c}": lambda v, x, c=c: folded_forward(v, x, dtype, s2d=True, upto=c) for c in CUTS},
+                 "folded": lambda v, x: folded_forward(v, x, dtype, blocks=blocks),
+                 "folded_buffer": lambda v, x: folded_forward(v, x, dtype, buffer=True, blocks=blocks),
+                 "folded_s2d": lambda v, x: folded_forward(v, x, dtype, s2d=True, blocks=blocks),
+                 "folded_s2d_dot": lambda v, x: folded_forward(v, x, dtype, s2d=True, dot=True, blocks=blocks),
+                 "folded_s2d_poolfirst": lambda v, x: folded_forward(v, x, dtype, s2d=True, pool_first=True, blocks=blocks),
+                 "folded_s2d_pooldot": lambda v, x: folded_forward(v, x, dtype, s2d=True, dot=True, pool_first=True, blocks=blocks),
+                 **{f"upto_{c}": lambda v, x, c=c: folded_forward(v, x, dtype, s2d=True, upto=c, blocks=blocks) for c in CUTS},
                  "stem": lambda v, x: stem(v, x, dtype),
                  "stem_s2d": lambda v, x: stem(v, x, dtype, s2d=True)}
     forms = {k: all_forms[k] for k in args.forms.split(",") if k}
@@ -302,7 +313,7 @@ def main(argv=None) -> int:
     if args.out:
         os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
         with open(args.out, "w") as f:
-            json.dump({"device": jax.devices()[0].device_kind, "dtype": args.dtype, "px": args.px,
+            json.dump({"device": jax.devices()[0].device_kind, "dtype": args.dtype, "px": args.px, "blocks": list(blocks),
                        "matmul_peak_flops_per_s": peak, "rows": rows, "date": time.strftime("%Y-%m-%d")}, f, indent=2)
         print(f"wrote {args.out}")
     return 0

@@ -1,6 +1,8 @@
 """bench/densenet_speed.py on a tiny input on CPU: every formulation of DenseNet-121's eval pass
 (and of its stem, and of its prefixes) computes the module's result and is counted at the model
-FLOPs it executes.  One run of the script for all forms: DenseNet-121 compiles slowly on CPU."""
+FLOPs it executes.  One run of the script for all forms, on a DenseNet of DenseNet-121's layers
+with fewer of them in each block (``BLOCKS``; --blocks): DenseNet-121 itself compiled in about 50
+s on CI's cores, and every form's code is the same whatever the block lengths."""
 import json
 import os
 import sys
@@ -15,6 +17,7 @@ import densenet_speed  # noqa: E402
 WHOLE = ["folded_s2d", "folded_s2d_dot", "folded_s2d_poolfirst", "folded_s2d_pooldot"]
 UPTO = [f"upto_{c}" for c in densenet_speed.CUTS]
 STEMS = ["stem", "stem_s2d"]
+BLOCKS = (1, 2, 2, 1)  # dense layers per block (DenseNet-121: 6, 12, 24, 16)
 
 
 @pytest.fixture(scope="module")
@@ -22,7 +25,7 @@ def rows(tmp_path_factory):
     out = str(tmp_path_factory.mktemp("densenet_speed") / "speed.json")
     forms = WHOLE + UPTO + STEMS
     assert densenet_speed.main(["--px", "32", "--batches", "1", "--reps", "1", "--dtype", "float32",
-                                "--forms", ",".join(forms), "--out", out]) == 0
+                                "--forms", ",".join(forms), "--blocks", ",".join(map(str, BLOCKS)), "--out", out]) == 0
     with open(out) as f:
         rows = {r["form"]: r for r in json.load(f)["rows"]}
     assert list(rows) == forms and all(r["s"] > 0 and r["images"] == 1 for r in rows.values())
@@ -38,7 +41,7 @@ def _cumulative_flops():
     16 x 16, blocks on 8, 4, 2, 1 px; a dense layer 1x1 to 128 channels, 3x3 to 32."""
     total, out = _conv_flops(16, 7, 3, 64), {"stem": _conv_flops(16, 7, 3, 64)}
     channels = 64
-    for b, (n_layers, px) in enumerate(zip((6, 12, 24, 16), (8, 4, 2, 1))):
+    for b, (n_layers, px) in enumerate(zip(BLOCKS, (8, 4, 2, 1))):
         for i in range(n_layers):
             total += _conv_flops(px, 1, channels + 32 * i, 128) + _conv_flops(px, 3, 128, 32)
         channels += 32 * n_layers
@@ -50,6 +53,17 @@ def _cumulative_flops():
     return out
 
 
+def _transition_flops():
+    """The FLOPs of the three transitions' 1x1 convs (on 8 x 8, 4 x 4, 2 x 2), each halving its
+    block's channels."""
+    channels, total = 64, 0
+    for n_layers, px in zip(BLOCKS[:3], (8, 4, 2)):
+        channels += 32 * n_layers
+        total += _conv_flops(px, 1, channels, channels // 2)
+        channels //= 2
+    return total
+
+
 def test_whole_passes_agree_with_the_module(rows):
     assert all(rows[k]["max_rel_diff_to_module"] < 1e-5 for k in WHOLE), {k: rows[k]["max_rel_diff_to_module"] for k in WHOLE}
     assert {rows[k]["module_flops"] for k in WHOLE} == {_cumulative_flops()["block4"]}
@@ -59,7 +73,7 @@ def test_dot_forms_count_the_modules_flops_and_pool_first_a_quarter_of_the_trans
     module = rows["folded_s2d"]["module_flops"]
     assert rows["folded_s2d"]["flops"] == rows["folded_s2d_dot"]["flops"] == module
     # The transitions' 1x1 convs on 8 x 8, 4 x 4, 2 x 2: pool-first runs them on a quarter of the pixels.
-    transitions = _conv_flops(8, 1, 256, 128) + _conv_flops(4, 1, 512, 256) + _conv_flops(2, 1, 1024, 512)
+    transitions = _transition_flops()
     assert rows["folded_s2d_poolfirst"]["flops"] == rows["folded_s2d_pooldot"]["flops"] == module - transitions * 3 // 4
     for k in ("folded_s2d_poolfirst", "folded_s2d_pooldot"):
         assert rows[k]["mfu_of_module_flops"] > rows[k]["mfu"]
@@ -79,3 +93,10 @@ def test_stems_agree_and_count_the_7x7_conv(rows):
     assert rows["stem_s2d"]["max_rel_diff_to_module"] < 1e-5 and rows["stem_s2d"]["flops"] == rows["stem"]["flops"]
     # The stem's model FLOPs: a 7 x 7 / 2 conv from 3 to 64 channels on 32 x 32 (no zero taps).
     assert rows["stem"]["flops"] == rows["stem"]["module_flops"] == 2 * 16 * 16 * 7 * 7 * 3 * 64
+
+
+def test_blocks_must_be_four_positive_counts(capsys):
+    for bad in ("1,2,2", "1,2,x,1", "1,0,2,1"):
+        with pytest.raises(SystemExit) as e:
+            densenet_speed.main(["--blocks", bad])
+        assert e.value.code == 2 and "--blocks takes 4 positive integers" in capsys.readouterr().err
