@@ -12,7 +12,9 @@ of stage 2's worlds (not its replays, which the child only shapes) beside stage 
 takes device memory buffer by buffer and gives it back (``XLA_PYTHON_CLIENT_ALLOCATOR=platform``):
 with JAX's growing pool instead (``XLA_PYTHON_CLIENT_PREALLOCATE=false`` alone) its next region
 was 16 GiB, and on an H100 beside train.py's pool the attempt left too little for Warp to load
-its kernels (bench/RESULTS.md, "Q-network passes only where their result is used").  The slow
+its kernels (bench/RESULTS.md, "Q-network passes only where their result is used"; with this
+allocator both children of a warm H100 run finished: "The warm pipeline with
+`forward_needed_only`").  The slow
 allocator costs the child little: it runs stage 2's start once.  Whatever happens to the child, the pipeline goes on:
 if it fails, stage 2 compiles its own programs as without it (one warning line naming the
 child's log, ``RUN/compile_ahead.log``, and quoting its last line).
