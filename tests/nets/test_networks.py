@@ -311,7 +311,7 @@ def test_densenet121_eval_mode_folds_the_batchnorms_after_convolutions(monkeypat
     them (``densenet.conv_bn_relu``); the result is the modules' unfolded arithmetic.  The stem's
     space-to-depth form (``StemConv``) is the 7x7 / 2 conv with padding 3, even and odd sizes.
     On DenseNet-121's layers with 1, 2, 2, 1 of them per block (every layer folds alike; the
-    whole DenseNet-121 compiled twice here took about 12 s of the suite)."""
+    whole DenseNet-121 compiled twice here took about 14 s of the suite)."""
     from vags_jax.nets import densenet
 
     xs = jax.random.normal(jax.random.PRNGKey(10), (2, 12, 10, 3))
