@@ -112,9 +112,11 @@ def runs(pieces):
 
 
 @pytest.fixture(scope="module")
-def target(runs):
+def target(runs, programs):
+    """Stage 1's fresh state for the runs' config, the template their checkpoints restore into:
+    from the session's stage (its reset already traced and compiled by the pipeline)."""
     cfg = checkpoint.load_config(runs[0])
-    return Stage1(cfg).init(jax.random.PRNGKey(cfg.seed))
+    return programs.stage("stage1", cfg).init(jax.random.PRNGKey(cfg.seed))
 
 
 def test_resume_matches_uninterrupted_run(runs, target):
