@@ -30,25 +30,32 @@ def _spd(batch: int, n: int, seed: int = 0) -> np.ndarray:
     return a @ a.transpose(0, 2, 1) + n * np.eye(n, dtype=np.float32)
 
 
-def test_cpu_cholesky_and_triangular_solve_lower_to_hlo_ops_not_lapacks_kernels():
+def _cho_solve_text(batch: int) -> str:
+    s, b = _spd(batch, 6), np.ones((batch, 6), np.float32)
+    return jax.jit(jax.vmap(lambda s, b: sla.cho_solve(sla.cho_factor(s), b))).lower(s, b).as_text()
+
+
+def test_large_batches_lower_to_hlo_ops_small_ones_keep_lapack():
     assert cpu_linalg.applied() and cpu_linalg.use_xla_linalg_on_cpu()  # idempotent
-    s, b = _spd(8, 6), np.ones((8, 6), np.float32)
-    text = jax.jit(jax.vmap(lambda s, b: sla.cho_solve(sla.cho_factor(s), b))).lower(s, b).as_text()
-    assert "cholesky" in text and "triangular_solve" in text and "lapack" not in text
+    big = _cho_solve_text(cpu_linalg.LAPACK_MAX_BATCH + 1)
+    assert "cholesky" in big and "triangular_solve" in big and "lapack" not in big
+    small = _cho_solve_text(cpu_linalg.LAPACK_MAX_BATCH)
+    assert "lapack_spotrf" in small and "lapack_strsm" in small
 
 
 def test_factorisations_and_solves_equal_numpys():
-    s = _spd(16, 24)
+    s = _spd(cpu_linalg.LAPACK_MAX_BATCH + 4, 24)
     np.testing.assert_allclose(np.asarray(jax.jit(jnp.linalg.cholesky)(s)), np.linalg.cholesky(s),
                                rtol=1e-4, atol=1e-4)
-    b = np.random.RandomState(1).randn(16, 24).astype(np.float32)
+    b = np.random.RandomState(1).randn(len(s), 24).astype(np.float32)
     x = jax.jit(jax.vmap(lambda s, b: sla.cho_solve(sla.cho_factor(s), b)))(s, b)  # as MJX solves
     np.testing.assert_allclose(np.asarray(x), np.linalg.solve(s, b[..., None])[..., 0], rtol=1e-4, atol=1e-5)
-    assert np.isnan(np.asarray(jnp.linalg.cholesky(jnp.array([[1.0, 2.0], [2.0, 1.0]])))).any()  # not SPD
+    not_spd = np.broadcast_to(np.array([[1.0, 2.0], [2.0, 1.0]], np.float32), (len(s), 2, 2))
+    assert np.isnan(np.asarray(jnp.linalg.cholesky(not_spd))).any(axis=(1, 2)).all()  # every matrix
 
 
-def test_a_batched_mjx_step_makes_no_lapack_call():
+def test_a_batched_mjx_step_of_many_worlds_makes_no_lapack_call():
     model = mjx.put_model(mujoco.MjModel.from_xml_string(XML))
-    data = jax.vmap(lambda _: mjx.make_data(model))(jnp.arange(4))
+    data = jax.vmap(lambda _: mjx.make_data(model))(jnp.arange(64))  # 64: LAPACK's kernels hung there
     text = jax.jit(jax.vmap(lambda d: mjx.step(model, d))).lower(data).as_text()
     assert text.count("cholesky") >= 2 and "custom_call" not in text  # no LAPACK kernel at all
