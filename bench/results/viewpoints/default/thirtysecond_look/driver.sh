@@ -1,4 +1,7 @@
 #!/usr/bin/env bash
+# NOT RUN YET: in the session that wrote it (2026-12-06 23:25 to 2026-12-07 02:25 UTC) no H100 or
+# H200 could be started (ten failed starts, 991 s of the session's 1,800 s of device time).
+# The rules below stand for the session that runs it.
 # Issue 23: the final run trained again with today's `gpu` preset (MJX's Warp renderer and
 # net.forward_needed_only, both taken after g60 was trained), its VAGS and ablation (groups 1-10 x
 # 50 rounds, seeds 11-13) and its Fig. 6 sweep (seed 11, 20 rounds a group, 11 thresholds).

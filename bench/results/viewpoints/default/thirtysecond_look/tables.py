@@ -1,0 +1,85 @@
+"""Prints the tables of driver.sh in this directory: each pipeline's wall clock (machine_log.txt)
+and its stages' (timings.jsonl) with its compile-ahead children; f41's benchmark against issue 23's
+goals (bench/viewpoint_goals.py); f41's Fig. 6 sweep, drawn to fig6.png beside this file when
+matplotlib is installed.  Run from anywhere: python bench/results/viewpoints/default/thirtysecond_look/tables.py"""
+import json
+import os
+import re
+import subprocess
+import sys
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.abspath(os.path.join(HERE, "..", "..", "..", "..", ".."))
+RUNS = (("f41", "cold (empty cache)"), ("w42", "warm, --compile-ahead off"), ("w43", "warm, compile ahead (auto)"))
+
+
+def load_jsonl(path):
+    with open(path) as f:
+        return [json.loads(line) for line in f if line.strip()]
+
+
+def wall_clocks():
+    """{run: seconds of its train.py} from machine_log.txt."""
+    with open(os.path.join(HERE, "machine_log.txt")) as f:
+        return {m.group(1): int(m.group(2)) for m in re.finditer(r"^train_([fw]\d+)\S* rc=0 (\d+) s", f.read(), re.M)}
+
+
+def ahead(rows, key):
+    r = rows.get(key)
+    if r is None:
+        return "not run"
+    return f"{r['status']}, {r['compile']['compiled']} compiled, {r['compile']['loaded']} loaded, {r['wall_s']:.0f} s"
+
+
+def timing_table():
+    walls = wall_clocks()
+    print("| run | train.py s | stage 1 s | stage 2 s | stage 3 s | gate table s | loading + compiling s (stages + table) "
+          "| compile ahead: stage 2 / gate table |")
+    print("|---|---:|---:|---:|---:|---:|---:|---|")
+    for run, name in RUNS:
+        path = os.path.join(HERE, run, "timings.jsonl")
+        if not os.path.exists(path):
+            print(f"| {run}, {name} | not run | | | | | | |")
+            continue
+        rows = {r["stage"]: r for r in load_jsonl(path)}
+        stages = ("stage1", "stage2", "stage3", "gate")
+        compiling = sum(rows[s]["compile"]["seconds"] for s in stages if s in rows)
+        print(f"| {run}, {name} | {walls.get(run, '')} | "
+              + " | ".join(f"{rows[s]['wall_s']:.1f}" if s in rows else "" for s in stages)
+              + f" | {compiling:.1f} | {ahead(rows, 'compile_ahead')} / {ahead(rows, 'compile_ahead_gate')} |")
+
+
+def sweep_table():
+    path = os.path.join(HERE, "f41", "sweep", "eval_vags_r20_sweep.json")
+    if not os.path.exists(path):
+        print("\nno sweep")
+        return
+    with open(path) as f:
+        rows = json.load(f)["rows"]
+    print("\n| threshold (rate gate's move value) | success % | clearing % | motion number | moves % | picks/h |")
+    print("|---:|---:|---:|---:|---:|---:|")
+    for r in sorted(rows, key=lambda r: r["threshold"]):
+        o = r["overall"]
+        print(f"| {r['threshold']:+.2f} | {100 * o['grasp_success_rate']:.1f} | {100 * o['clearing_rate']:.1f} | "
+              f"{o['motion_number']:.2f} | {100 * o['viewpoint_rate']:.1f} | {o['picks_per_hour']:.0f} |")
+    sys.path.insert(0, ROOT)
+    try:
+        from vags_jax.benchmark import reports
+        reports.plot_sweep(rows, os.path.join(HERE, "fig6.png"), title="f41 (the gpu preset): grasp success vs threshold")
+        print("\ndrew fig6.png")
+    except ImportError as e:  # matplotlib missing
+        print(f"\nno plot: {e}")
+
+
+def main():
+    timing_table()
+    f41 = os.path.join(HERE, "f41")
+    if os.path.isdir(os.path.join(f41, "seed11")):
+        print()
+        subprocess.run([sys.executable, os.path.join(ROOT, "bench", "viewpoint_goals.py"), f41], check=False)
+    sweep_table()
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
