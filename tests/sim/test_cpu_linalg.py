@@ -1,7 +1,7 @@
-"""The CPU's Cholesky factorisations and triangular solves lower to XLA's own algorithms once
-``vags_jax.sim`` is imported (``vags_jax/sim/cpu_linalg.py``): jaxlib 0.10's LAPACK kernels
-deadlocked MJX's two concurrent factorisations of a step on a 2-core machine (``eval.py`` of 150
-worlds never ended)."""
+"""Once ``vags_jax.sim`` is imported, the CPU's Cholesky factorisations and triangular solves over
+more than ``LAPACK_MAX_BATCH`` matrices lower to XLA's own algorithms (``vags_jax/sim/cpu_linalg.py``):
+jaxlib 0.10's LAPACK kernels deadlocked MJX's two concurrent factorisations of a step on a 2-core
+machine (``eval.py`` of 150 worlds never ended)."""
 import jax
 import jax.numpy as jnp
 import jax.scipy.linalg as sla
