@@ -17,7 +17,7 @@ kernels without the parallel path; this package's CPU users may have an older on
 on the CPU, for batches of more than ``LAPACK_MAX_BATCH`` matrices, to the ``cholesky`` and
 ``triangular_solve`` HLO ops, which XLA's CPU compiler expands into loops inside the program, so
 nothing waits on the pool.  Smaller batches keep LAPACK's kernels: on 2 cores they never hung up
-to 32 worlds (24 x 24 matrices) and 16 (84 x 84), and MJX's step runs 2.3x faster with them at 8
+to 32 worlds (24 x 24 matrices) and 16 (84 x 84), and MJX's step runs 2.3-2.5x faster with them at 8
 worlds (the tests' sizes).  The results differ in their last bits only.  GPUs keep their own
 lowerings (cuSOLVER), and impl "warp" uses neither.  It is applied when ``vags_jax.sim`` is
 imported, before any physics program is lowered, and holds for the whole process.  It uses JAX's
