@@ -60,6 +60,11 @@ def test_closing_lines_and_next_commands():
     gg = progress.next_commands("runs/c", {"ggcnn": "1/0", "stage1": "0/8"}, True)
     assert gg == ["python eval.py --run runs/c --policy ggcnn    # GG-CNN from the global view"]
     assert progress.next_commands("runs/d", {"stage1": "4/8"}, False)[0].startswith("python train.py --out runs/d --resume")
+    assert not any("--rounds 4" in c for c in only1)  # the full benchmark only, off a CPU
+    on_cpu = progress.next_commands("runs/b", {"stage1": "8/8", "stage2": "2/2", "stage3": "4/4"}, True, quick=True)
+    assert on_cpu[0].startswith("python eval.py --run runs/b --groups 1-3 --rounds 4 ") and "30 min" in on_cpu[0]
+    assert on_cpu[1].startswith("python eval.py --run runs/b  ")  # the full benchmark is still offered
+    assert progress.next_commands("runs/d", {"stage1": "4/8"}, False, quick=True)[0].startswith("python train.py")
     on_gpu = progress.closing_lines([s1], "runs/a", {"stage1": "8/8"}, 70.0, "runs/a/summary.json", True, peak_gib=50.35)
     assert on_gpu[0] == "trained in 1 min 10 s: runs/a (peak device memory 50.4 GiB)"
 

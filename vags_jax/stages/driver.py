@@ -154,7 +154,7 @@ def report_end(args, data: dict, summaries: list, cfg, wall_s: float, finished: 
     status = run_status(args.out, cfg)
     lines = progress.closing_lines(summaries, args.out, status, wall_s, path, finished, cfg.parallel.devices > 1,
                                    cfg.vags.gate != "rate" and os.path.isfile(os.path.join(args.out, rate_gate.GATE_FILE)),
-                                   peak)
+                                   peak, quick=jax.default_backend() == "cpu")
     print("\n".join(lines), file=sys.stderr if args.json else sys.stdout, flush=True)
     if args.json:
         print(json.dumps(data), flush=True)

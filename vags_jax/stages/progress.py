@@ -87,16 +87,21 @@ def stage_line(s: dict) -> str:
 
 
 def next_commands(out: str, progress: dict, finished: bool, data_parallel: bool = False,
-                  gate_table: bool = False) -> list:
+                  gate_table: bool = False, quick: bool = False) -> list:
     """What to run next on run ``out``: ``progress`` {stage: "done/total"} of every stage it has;
     ``data_parallel``: stage 1 trained over several devices, which stages 2-3 cannot follow yet;
-    ``gate_table``: the run has the "rate" gate's table."""
+    ``gate_table``: the run has the "rate" gate's table; ``quick``: the run trained on a CPU, where
+    the full benchmark (10 groups x 50 rounds a policy) takes about half an hour, so a 12-round
+    look comes first."""
     if not finished:
         return [f"python train.py --out {out} --resume --stage gdnet   # continue where it stopped"
                 if data_parallel else f"python train.py --out {out} --resume      # continue where it stopped"]
     counts = {n: [int(x) for x in p.split("/")] for n, p in progress.items()}
     done = {n for n, (have, want) in counts.items() if have > 0 and have >= want}
     cmds = []
+    if quick and {"stage1", "stage2", "stage3"} & done:
+        cmds.append(f"python eval.py --run {out} --groups 1-3 --rounds 4   # a quick look (the full benchmark "
+                    "below takes about 30 min on a CPU)")
     if {"stage2", "stage3"} & done:
         cmds += [f"python eval.py --run {out}                   # VAGS on the benchmark (docs/benchmark.md)",
                  f"python eval.py --run {out} --no-viewpoint    # the same without VANet (ablation)"]
@@ -113,16 +118,16 @@ def next_commands(out: str, progress: dict, finished: bool, data_parallel: bool 
 
 def closing_lines(summaries: Iterable[dict], out: str, progress: dict, wall_s: float, summary_file: str,
                   finished: bool, data_parallel: bool = False, gate_table: bool = False,
-                  peak_gib: Optional[float] = None) -> list:
+                  peak_gib: Optional[float] = None, quick: bool = False) -> list:
     """The human summary: one line per stage trained by this command, the run's progress, where
     the JSON summary is, and the next commands (``next_commands``); ``peak_gib``: the process's
-    peak device memory, where the device reports it."""
+    peak device memory, where the device reports it; ``quick``: as in ``next_commands``."""
     peak = "" if peak_gib is None else f" (peak device memory {peak_gib:.1f} GiB)"
     lines = [f"trained in {duration(wall_s)}: {out}{peak}"]
     lines += [stage_line(s) for s in summaries]
     lines.append("  progress: " + ", ".join(f"{n} {p}" for n, p in progress.items()))
     lines.append(f"  summary (JSON): {summary_file}")
-    cmds = next_commands(out, progress, finished, data_parallel, gate_table)
+    cmds = next_commands(out, progress, finished, data_parallel, gate_table, quick)
     if cmds:
         lines.append("next:")
         lines += [f"  {c}" for c in cmds]
