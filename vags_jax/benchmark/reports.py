@@ -167,6 +167,20 @@ def _save(fig, canvas_cls, path: str) -> None:
     fig.savefig(path, format="png", dpi=120)
 
 
+def _finish(fig, canvas_cls, path: str, axes, xlabel: str, ylabels, title: Optional[str]) -> None:
+    """Labels the panels ``axes`` (percent y axes, a grid, a legend), titles ``fig`` and writes it
+    to ``path``."""
+    for ax, name in zip(axes, ylabels):
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(name)
+        ax.set_ylim(-2, 102)
+        ax.grid(True, alpha=0.3)
+        ax.legend()
+    if title:
+        fig.suptitle(title)
+    _save(fig, canvas_cls, path)
+
+
 def plot_by_objects(reports: dict[str, dict], path: str, title: Optional[str] = None) -> None:
     """Grasp success (%) and scene clearing (%) against the number of objects (the paper's
     Fig. 7), two panels side by side, one line with markers per report.
@@ -190,16 +204,9 @@ def plot_by_objects(reports: dict[str, dict], path: str, title: Optional[str] = 
         axes[1].plot(k, clearing, marker="o", label=label)
     from matplotlib.ticker import MaxNLocator
 
-    for ax, name in zip(axes, ("grasp success (%)", "scene clearing (%)")):
-        ax.set_xlabel("number of objects")
+    for ax in axes:
         ax.xaxis.set_major_locator(MaxNLocator(integer=True))
-        ax.set_ylabel(name)
-        ax.set_ylim(-2, 102)
-        ax.grid(True, alpha=0.3)
-        ax.legend()
-    if title:
-        fig.suptitle(title)
-    _save(fig, Canvas, path)
+    _finish(fig, Canvas, path, axes, "number of objects", ("grasp success (%)", "scene clearing (%)"), title)
 
 
 def plot_sweep(rows: list[dict], path: str, title: Optional[str] = None) -> None:
@@ -221,12 +228,5 @@ def plot_sweep(rows: list[dict], path: str, title: Optional[str] = None) -> None
             for r, x in zip(pts, t):
                 axes[0].annotate(f"q={r['quantile']:g}", (x, _percent(r["overall"]["grasp_success_rate"])),
                                  textcoords="offset points", xytext=(4, 4), fontsize=8)
-    for ax, name in zip(axes, ("grasp success (%)", "viewpoint moves (% of attempts)")):
-        ax.set_xlabel("decision threshold (the gate's score)")
-        ax.set_ylabel(name)
-        ax.set_ylim(-2, 102)
-        ax.grid(True, alpha=0.3)
-        ax.legend()
-    if title:
-        fig.suptitle(title)
-    _save(fig, Canvas, path)
+    _finish(fig, Canvas, path, axes, "decision threshold (the gate's score)",
+            ("grasp success (%)", "viewpoint moves (% of attempts)"), title)
