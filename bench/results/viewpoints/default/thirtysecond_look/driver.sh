@@ -1,7 +1,10 @@
 #!/usr/bin/env bash
-# NOT RUN YET: in the session that wrote it (2026-12-06 23:25 to 2026-12-07 02:25 UTC) no H100 or
-# H200 could be started (ten failed starts, 991 s of the session's 1,800 s of device time).
-# The rules below stand for the session that runs it.
+# RUN on one H100 on 2026-12-07, 03:31-03:44 UTC (its results beside this file; `tables.py` prints
+# them).  f41, its evaluations and its sweep finished, then w42.  Six starts had failed first, so
+# 191 s of device time were left for w43, which takes about 260 s: the machine was given back as w43
+# started (train_w43_auto.txt is its log up to there), and the warm pair is half measured.
+# Written in the session of 2026-12-06 23:25 to 2026-12-07 02:25 UTC, in which no H100 or H200
+# could be started.
 # Issue 23: the final run trained again with today's `gpu` preset (MJX's Warp renderer and
 # net.forward_needed_only, both taken after g60 was trained), its VAGS and ablation (groups 1-10 x
 # 50 rounds, seeds 11-13) and its Fig. 6 sweep (seed 11, 20 rounds a group, 11 thresholds).

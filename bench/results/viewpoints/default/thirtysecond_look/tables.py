@@ -2,6 +2,7 @@
 and its stages' (timings.jsonl) with its compile-ahead children; f41's benchmark against issue 23's
 goals (bench/viewpoint_goals.py); f41's Fig. 6 sweep, drawn to fig6.png beside this file when
 matplotlib is installed.  Run from anywhere: python bench/results/viewpoints/default/thirtysecond_look/tables.py"""
+import gzip
 import json
 import os
 import re
@@ -50,11 +51,11 @@ def timing_table():
 
 
 def sweep_table():
-    path = os.path.join(HERE, "f41", "sweep", "eval_vags_r20_sweep.json")
+    path = os.path.join(HERE, "f41", "sweep", "eval_vags_r20_sweep.json.gz")  # gzipped as committed
     if not os.path.exists(path):
         print("\nno sweep")
         return
-    with open(path) as f:
+    with gzip.open(path, "rt") as f:
         rows = json.load(f)["rows"]
     print("\n| threshold (rate gate's move value) | success % | clearing % | motion number | moves % | picks/h |")
     print("|---:|---:|---:|---:|---:|---:|")
