@@ -91,8 +91,8 @@ def next_commands(out: str, progress: dict, finished: bool, data_parallel: bool 
     """What to run next on run ``out``: ``progress`` {stage: "done/total"} of every stage it has;
     ``data_parallel``: stage 1 trained over several devices, which stages 2-3 cannot follow yet;
     ``gate_table``: the run has the "rate" gate's table; ``quick``: the run trained on a CPU, where
-    the full benchmark (10 groups x 50 rounds a policy) takes about half an hour, so a 12-round
-    look comes first."""
+    the full benchmark (50 rounds a group; groups 1-3 for the ``tiny`` preset) takes about half an
+    hour, so a 12-round look comes first."""
     if not finished:
         return [f"python train.py --out {out} --resume --stage gdnet   # continue where it stopped"
                 if data_parallel else f"python train.py --out {out} --resume      # continue where it stopped"]
