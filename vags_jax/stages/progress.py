@@ -101,7 +101,7 @@ def next_commands(out: str, progress: dict, finished: bool, data_parallel: bool 
     cmds = []
     if quick and {"stage1", "stage2", "stage3"} & done:
         cmds.append(f"python eval.py --run {out} --groups 1-3 --rounds 4   # a quick look (the full benchmark "
-                    "below takes about 30 min on a CPU)")
+                    "below took about 30 min for the tiny preset on 2 CPU cores)")
     if {"stage2", "stage3"} & done:
         cmds += [f"python eval.py --run {out}                   # VAGS on the benchmark (docs/benchmark.md)",
                  f"python eval.py --run {out} --no-viewpoint    # the same without VANet (ablation)"]
