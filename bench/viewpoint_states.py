@@ -123,7 +123,7 @@ def make_step(cfg, env, has_ggcnn: bool, has_mean: bool):
         if has_ggcnn:
             attempts["view_ggcnn"], _ = close_view_grasp(cfg_gg, env, state, d_q.view, k_gg, None, params["ggcnn"],
                                                          nets.ggcnn)
-        cell = jax.vmap(lambda k, h: exploration._random_pixel(k, h, cfg.exploration))(
+        cell = jax.vmap(lambda k, h: exploration.random_object_cell(k, h, cfg.exploration))(
             jax.random.split(k_rand, state.n_worlds), state.height)
         rand_view = jnp.stack(jnp.unravel_index(cell, state.height.shape[1:]), -1).astype(jnp.int32)
         attempts["random_gdnet"], close_rand = close_view_grasp(cfg_gd, env, state, rand_view, k_rv, close_q)

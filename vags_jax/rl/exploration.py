@@ -23,7 +23,7 @@ def epsilon(step, cfg: Exploration) -> jax.Array:
     return jnp.maximum(cfg.eps_start * jnp.power(jnp.float32(cfg.eps_decay), step), cfg.eps_end)
 
 
-def _random_pixel(key: jax.Array, height: jax.Array, cfg: Exploration) -> jax.Array:
+def random_object_cell(key: jax.Array, height: jax.Array, cfg: Exploration) -> jax.Array:
     """One map: height (H, W) -> flat pixel index () int32, uniform over object pixels (DAES),
     over all pixels when ``cfg.daes`` is False or the map has no object pixel."""
     flat = height.reshape(-1)
@@ -74,7 +74,7 @@ def draw_grasp_exploration(key: jax.Array, n_rotations: int, height: jax.Array, 
     b, h, w = height.shape
     k_explore, k_pixel, k_rot = jax.random.split(key, 3)
     explored = _explore_mask(k_explore, eps, b)
-    pix = jax.vmap(lambda k, hm: _random_pixel(k, hm, cfg))(jax.random.split(k_pixel, b), height)
+    pix = jax.vmap(lambda k, hm: random_object_cell(k, hm, cfg))(jax.random.split(k_pixel, b), height)
     x_row, x_col = jnp.unravel_index(pix, (h, w))
     x_rot = jax.random.randint(k_rot, (b,), 0, n_rotations)
     return jnp.stack([x_rot, x_row, x_col], axis=-1).astype(jnp.int32), explored
@@ -90,7 +90,7 @@ def select_pixel(key: jax.Array, q: jax.Array, height: jax.Array, eps, cfg: Expl
     k_explore, k_pixel = jax.random.split(key)
     explored = _explore_mask(k_explore, eps, b)
     greedy = jnp.argmax(q.reshape(b, -1), axis=-1).astype(jnp.int32)
-    pix = jax.vmap(lambda k, hm: _random_pixel(k, hm, cfg))(jax.random.split(k_pixel, b), height)
+    pix = jax.vmap(lambda k, hm: random_object_cell(k, hm, cfg))(jax.random.split(k_pixel, b), height)
     flat = jnp.where(explored, pix, greedy)
     row, col = jnp.unravel_index(flat, (h, w))
     return jnp.stack([row, col], axis=-1).astype(jnp.int32), explored

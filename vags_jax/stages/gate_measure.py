@@ -45,19 +45,25 @@ from vags_jax.benchmark.metrics import MotionTimeModel
 from vags_jax.benchmark.protocol import return_distance
 from vags_jax.config import GateTable, replace
 from vags_jax.env import VagsEnv, where_worlds
+from vags_jax.perception.topdown import TopDown
 from vags_jax.policies import rate_gate
 from vags_jax.policies.catalog import vags_params
 from vags_jax.policies.decision import (CLOSE_SCORES, DIRECT_SCORES, GATE_ESTIMATES, VagsNets, close_view_grasp,
                                         decide, greedy, success_estimates)
+from vags_jax.rl.exploration import random_object_cell
 from vags_jax.stages import checkpoint, rundir
 from vags_jax.stages.programs import Programs
 
 PROG = "python -m vags_jax.stages.gate_measure"
 STATES_FILE = rate_gate.STATES_FILE
 FOLLOW = ("direct", "moved")  # the branch the piles follow from one measured state to the next
+# Diagnostic branches (``bench/gate_headroom.py``), never in the pipeline's table: "oracle", the
+# direct planner on ground-truth top-down maps (the most any viewpoint could show it); "random",
+# the move and close-view grasp of "moved" but to a uniformly random object cell.
+EXTRA_BRANCHES = ("oracle", "random")
 
 
-def make_collect(cfg, env: VagsEnv, nets: VagsNets):
+def make_collect(cfg, env: VagsEnv, nets: VagsNets, extra: tuple = ()):
     """-> jitted ``(params, key, state, follow_moved) -> (next state, per-world dict of (B,) arrays)``:
     ``p_direct`` the success net's estimate of the direct grasp (``vags.gate_estimate``; the
     grasp is ``vags.direct_score``'s, ``decision.direct_grasp``), and
@@ -72,8 +78,13 @@ def make_collect(cfg, env: VagsEnv, nets: VagsNets):
     direct grasp, or the grasp after the move where follow_moved (() bool, traced: one program
     for both) is set: the branch's own outcome, re-observed, so the program simulates each
     attempt once (two grasp loops, not three: a third of its compile and run time; three with
-    the "gdnet" branch)."""
+    the "gdnet" branch).  ``extra``: any of ``EXTRA_BRANCHES``, each one more branch from the
+    same state (the default program, and its keys, are unchanged without them)."""
+    unknown = [b for b in extra if b not in EXTRA_BRANCHES]
+    if unknown:
+        raise ValueError(f"extra branches must be among {EXTRA_BRANCHES}, got {unknown}")
     start = jnp.asarray(cfg.camera.global_position, jnp.float32)
+    topdown = TopDown(env) if "oracle" in extra else None
 
     def branch(name, state, attempt):
         """-> (the state after ``attempt``, unobserved; its per-world rows)."""
@@ -82,6 +93,25 @@ def make_collect(cfg, env: VagsEnv, nets: VagsNets):
         return after, {f"{name}_success": r.success, f"{name}_lost": env.knocked_off(state, after, r.success),
                        f"{name}_motions": attempt.motions,
                        f"{name}_travel": r.approach + r.descend + r.lift + attempt.view_travel, f"{name}_back": back}
+
+    def extra_rows(params, key, state):
+        """The rows of the ``extra`` branches from ``state``."""
+        rows = {}
+        if "oracle" in extra:
+            color, height = topdown.maps(state.sim)
+            qg, qv, qs = nets.q_maps(params, color, height)
+            g = decide(qg, qv, 0.0, qs, "q", viewpoint=cfg.vags.viewpoint, direct_score=cfg.vags.direct_score).grasp
+            pose = env.grasp_pose(state.replace(height=height), g[:, 1:], g[:, 0])
+            rows.update(branch("oracle", state, env.direct_attempt(*pose))[1])
+        if "random" in extra:
+            k_cell, k_img = jax.random.split(key)
+            cell = jax.vmap(lambda k, h: random_object_cell(k, h, cfg.exploration))(
+                jax.random.split(k_cell, state.n_worlds), state.height)
+            view = jnp.stack(jnp.unravel_index(cell, state.height.shape[1:]), -1).astype(jnp.int32)
+            moved, _ = close_view_grasp(cfg, env, state, view, k_img, nets.close_q(params), params.get("ggcnn"),
+                                        nets.ggcnn, nets.close_success_q(params))
+            rows.update(branch("random", state, moved)[1])
+        return rows
 
     def step(params, key, state, follow_moved):
         k_img, k_obs = jax.random.split(key)
@@ -98,6 +128,8 @@ def make_collect(cfg, env: VagsEnv, nets: VagsNets):
             g = greedy(q_grasp)[0]
             _, rows_gdnet = branch("gdnet", state, env.direct_attempt(*env.grasp_pose(state, g[:, 1:], g[:, 0])))
             rows_direct = {**rows_direct, **rows_gdnet}
+        if extra:
+            rows_direct = {**rows_direct, **extra_rows(params, jax.random.fold_in(key, 1), state)}
         estimates = success_estimates(q_success, q_grasp, d.grasp)
         out = {"p_direct": estimates[f"p_{cfg.vags.gate_estimate}"], **estimates,
                "objects": env.n_remaining(state), "live": (env.n_remaining(state) > 0) & ~state.sim.error,
@@ -143,10 +175,11 @@ def due(run_dir: str, cfg, stage3_finished: Optional[bool] = None) -> bool:
     return bool(steps) and rate_gate.load(run_dir, rundir.networks_source("stage3", max(steps))) is None
 
 
-def _collect_program(cfg, programs: Programs):
-    """(env, the jitted collect step) of measure config ``cfg``, built once per ``programs``."""
+def _collect_program(cfg, programs: Programs, extra: tuple = ()):
+    """(env, the jitted collect step with ``extra`` branches) of measure config ``cfg``, built once per ``programs``."""
     env = programs.env(cfg)
-    return env, programs.get(programs.cfg_key("gate_collect", cfg), lambda: make_collect(cfg, env, VagsNets(cfg)))
+    key = programs.cfg_key("gate_collect" + "".join(f"+{b}" for b in extra), cfg)
+    return env, programs.get(key, lambda: make_collect(cfg, env, VagsNets(cfg), extra))
 
 
 def _first_piles(env: VagsEnv, cfg, worlds: int, seed: int):
@@ -171,7 +204,7 @@ def compile_collect(run_cfg, networks, programs=None) -> None:
 
 def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=print, programs=None,
             count_lost=None, gdnet="stage3", follow="direct", estimate=None, close_score=None, direct_score=None,
-            piles=None):
+            piles=None, extra=()):
     """The gate table of a trained run (stage 3's networks, else stage 2's) -> (GateTable, meta,
     states): ``states`` the (N,) per-state arrays of the live states the table was fit on, with
     each state's ``world`` and ``attempt`` (its index along the pile).
@@ -185,7 +218,9 @@ def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=pri
     (``config.Vags.close_score``; None: the run's), recorded as meta["close_score"];
     direct_score: what plans the direct grasps (``config.Vags.direct_score``; None: the run's),
     recorded as meta["direct_score"]; piles: a dict that keeps the first piles by (worlds, seed),
-    so that calls of one config reset them once (``measure_picked``'s candidates)."""
+    so that calls of one config reset them once (``measure_picked``'s candidates); extra: any of
+    ``EXTRA_BRANCHES``, measured from the same states (``<branch>_success``, ``_lost``, ``_seconds``
+    in ``states``; the table is fit on "direct" and "moved" alone, as without them)."""
     if follow not in FOLLOW:
         raise ValueError(f"follow must be one of {FOLLOW}, got {follow!r}")
     run_cfg = checkpoint.load_config(run_dir)
@@ -197,7 +232,7 @@ def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=pri
     networks = rundir.load_vags(run_dir, cfg, gdnet=gdnet)
     params = vags_params(networks, cfg)  # ValueError without a success net
     stage = cfg.stage3
-    env, step = _collect_program(cfg, Programs() if programs is None else programs)
+    env, step = _collect_program(cfg, Programs() if programs is None else programs, tuple(extra))
     t0 = time.time()
     piles = {} if piles is None else piles
     if (worlds, seed) not in piles:  # the collect step does not donate its input: the piles can be reused
@@ -216,9 +251,10 @@ def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=pri
     rows = {k: v[live] for k, v in rows.items()}
     tm = MotionTimeModel.from_config(cfg)
     rows["direct_seconds"], rows["moved_seconds"] = seconds(rows, "direct", tm), seconds(rows, "moved", tm)
-    gdnet_rows = ("gdnet_success", "gdnet_lost", "gdnet_seconds") if "gdnet_success" in rows else ()
-    if gdnet_rows:
-        rows["gdnet_seconds"] = seconds(rows, "gdnet", tm)
+    more = [b for b in ("gdnet", *EXTRA_BRANCHES) if f"{b}_success" in rows]
+    for b in more:
+        rows[f"{b}_seconds"] = seconds(rows, b, tm)
+    more_rows = tuple(f"{b}_{k}" for b in more for k in ("success", "lost", "seconds"))
     table = rate_gate.fit(rows["p_direct"], rows["direct_success"], rows["direct_seconds"],
                           rows["moved_success"], rows["moved_seconds"], bins,
                           lost_direct=rows["direct_lost"], lost_moved=rows["moved_lost"], count_lost=count_lost)
@@ -234,7 +270,7 @@ def measure(run_dir: str, worlds=None, steps=None, bins=None, seed=None, log=pri
     states = {k: rows[k] for k in ("p_direct", "direct_success", "moved_success", "direct_lost", "moved_lost",
                                    "direct_seconds", "moved_seconds", "objects", "world", "attempt", "p_best",
                                    "q_direct", *(f"p_{e}" for e in GATE_ESTIMATES),
-                                   *gdnet_rows)}
+                                   *more_rows)}
     return table, meta, states
 
 
