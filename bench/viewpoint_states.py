@@ -1,6 +1,11 @@
 #!/usr/bin/env python3
 """Do viewpoints pay?  Every grasp planner of VAGS executed from the SAME states.
 
+For runs of today's presets (the "rate" gate, the grasp after a move planned by
+``vags.close_score``) use ``bench/gate_headroom.py``: it plays the run's own planners and gate
+on its gate table's states.  This script keeps the branches of the earlier looks (GDNet or
+GG-CNN on the fused close view, the "success" and "q" gates' splits).
+
     python bench/viewpoint_states.py --run runs/vags --objects 6-10 --worlds 512 --steps 8 \
         --out bench/results/viewpoints/default/states_6-10.json
 
