@@ -1,0 +1,78 @@
+"""Prints the tables of driver.sh in this directory: each pipeline's wall clock (machine_log.txt)
+and its stages' (timings.jsonl) with its compile-ahead children; f44's same-states table
+(bench/gate_headroom.py's headroom.json); f44's benchmark against issue 23's goals
+(bench/viewpoint_goals.py).  Run from anywhere: python bench/results/viewpoints/default/thirtythird_look/tables.py"""
+import json
+import os
+import re
+import subprocess
+import sys
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.abspath(os.path.join(HERE, "..", "..", "..", "..", ".."))
+RUNS = (("f44", "cold (empty cache)"), ("w45", "warm, compile ahead (auto)"), ("w46", "warm, --compile-ahead off"))
+
+
+def load_jsonl(path):
+    with open(path) as f:
+        return [json.loads(line) for line in f if line.strip()]
+
+
+def wall_clocks():
+    """{run: seconds of its train.py} from machine_log.txt."""
+    with open(os.path.join(HERE, "machine_log.txt")) as f:
+        return {m.group(1): int(m.group(2)) for m in re.finditer(r"^train_([fw]\d+)\S* rc=0 (\d+) s", f.read(), re.M)}
+
+
+def ahead(rows, key):
+    r = rows.get(key)
+    if r is None:
+        return "not run"
+    return f"{r['status']}, {r['compile']['compiled']} compiled, {r['compile']['loaded']} loaded, {r['wall_s']:.0f} s"
+
+
+def timing_table():
+    walls = wall_clocks()
+    print("| run | train.py s | stage 1 s | stage 2 s | stage 3 s | gate table s | loading + compiling s (stages + table) "
+          "| compile ahead: stage 2 / gate table |")
+    print("|---|---:|---:|---:|---:|---:|---:|---|")
+    for run, name in RUNS:
+        path = os.path.join(HERE, run, "timings.jsonl")
+        if not os.path.exists(path):
+            print(f"| {run}, {name} | not run | | | | | | |")
+            continue
+        rows = {r["stage"]: r for r in load_jsonl(path)}
+        stages = ("stage1", "stage2", "stage3", "gate")
+        compiling = sum(rows[s]["compile"]["seconds"] for s in stages if s in rows)
+        print(f"| {run}, {name} | {walls.get(run, '')} | "
+              + " | ".join(f"{rows[s]['wall_s']:.1f}" if s in rows else "" for s in stages)
+              + f" | {compiling:.1f} | {ahead(rows, 'compile_ahead')} / {ahead(rows, 'compile_ahead_gate')} |")
+
+
+def headroom_table():
+    path = os.path.join(HERE, "f44", "headroom.json")
+    if not os.path.exists(path):
+        print("\nno headroom table")
+        return
+    with open(path) as f:
+        got = json.load(f)
+    sys.path.insert(0, os.path.join(ROOT, "bench"))
+    from gate_headroom import table
+    print(f"\nf44's gate table states ({got['measure']['live_states']} live; GDNets {got['gdnet_pick']}; moving bins "
+          f"{got['moving_bins']['moving_bins']} of {got['moving_bins']['bins']}; outcomes equal to the run's table: "
+          f"{got['agreement_with_run_table']}; {got['measure']['wall_s']} s on {got['device']})\n")
+    print(table(got["summary"]))
+
+
+def main():
+    timing_table()
+    headroom_table()
+    f44 = os.path.join(HERE, "f44")
+    if os.path.isdir(os.path.join(f44, "seed11")):
+        print()
+        subprocess.run([sys.executable, os.path.join(ROOT, "bench", "viewpoint_goals.py"), f44], check=False)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
