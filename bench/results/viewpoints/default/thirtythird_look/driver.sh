@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Written on 2026-12-07 (session from 04:24 UTC) before any device call; the header is updated
-# with what ran.
+# RUN on one H100 on 2026-12-07, 04:57-05:15 UTC, after five failed starts; every step finished
+# (its results beside this file; `tables.py` prints them; bench/RESULTS.md, "thirty-third look").
+# Written in the same session before any device call.
 # Issue 23: the same-states table the issue asks for, on today's `gpu` preset, which the project
 # had not measured since the preset took the rate gate and the success-scored grasp after a move:
 # a fresh pipeline f44 (seed 44, from an empty compile cache), then bench/gate_headroom.py on its
