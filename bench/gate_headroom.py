@@ -23,7 +23,9 @@ the device computes bit for bit).  Reported per subset (all states; where the ga
 directly; where it moves) and per object count (1, 2-5, 6-10): each branch's success, the paired
 differences (``moved - direct``, ``oracle - direct``, ``moved - random``) with their standard
 errors, and the AUROC with which the gate's estimate (p_direct) and GDNet's Q at its grasp
-(q_direct) rank the direct grasp's success.  Markdown on stdout; ``--out`` JSON.
+(q_direct) rank the direct grasp's success.  Markdown on stdout; ``--out`` JSON; ``--rows`` the
+per-state values (.npz: every branch's success, lost and seconds, the estimates, objects, and
+``gate_moves``, the gate's decision) for analysis.
 """
 from __future__ import annotations
 
@@ -115,6 +117,7 @@ def main(argv=None) -> int:
     p.add_argument("--steps", type=int, default=None, help="direct attempts per pile (default: the table's)")
     p.add_argument("--seed", type=int, default=None, help="(default: the table's)")
     p.add_argument("--out", default=None, help="write the figures as JSON here")
+    p.add_argument("--rows", default=None, help="write the per-state values to this .npz")
     from vags_jax import cli
     cli.add_cache_dir(p)
     args = p.parse_args(argv)
@@ -139,15 +142,23 @@ def main(argv=None) -> int:
         return 2
     gate = rate_gate.load_table(args.run, max_motion_number=cfg.vags.max_motion_number)
     pick = rundir.picked_gdnet(args.run, cfg, d.get("networks"))
-    _, meta, states = gate_measure.measure(
-        args.run, worlds=args.worlds or d.get("worlds"), steps=args.steps or d.get("steps"),
-        seed=d.get("seed") if args.seed is None else args.seed, gdnet=pick, estimate=rate_gate.estimate_of(args.run),
-        close_score=rate_gate.close_score_of(args.run), direct_score=rate_gate.direct_score_of(args.run),
-        extra=gate_measure.EXTRA_BRANCHES, log=lambda m: print(m, file=sys.stderr, flush=True))
+    try:
+        _, meta, states = gate_measure.measure(
+            args.run, worlds=args.worlds or d.get("worlds"), steps=args.steps or d.get("steps"),
+            seed=d.get("seed") if args.seed is None else args.seed, gdnet=pick,
+            estimate=rate_gate.estimate_of(args.run), close_score=rate_gate.close_score_of(args.run),
+            direct_score=rate_gate.direct_score_of(args.run), extra=gate_measure.EXTRA_BRANCHES,
+            log=lambda m: print(m, file=sys.stderr, flush=True))
+    except (ValueError, checkpoint.CheckpointError, FileNotFoundError) as e:
+        print(f"gate_headroom.py: {e}", file=sys.stderr)
+        return 2
     moves = rate_gate.moves_at(gate, states["p_direct"])
     summary = summarize(states, moves)
     own_states = args.worlds is None and args.steps is None and args.seed is None
     same = agreement(states, rate_gate.read_states(args.run)) if own_states else None
+    if args.rows:
+        os.makedirs(os.path.dirname(os.path.abspath(args.rows)), exist_ok=True)
+        np.savez_compressed(args.rows, gate_moves=moves, **states)
     print(table(summary))
     print(f"{int(moves.sum())} of {moves.size} states in the gate's moving bins; outcomes equal to the run's "
           f"table: {same}")

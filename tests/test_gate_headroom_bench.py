@@ -67,3 +67,19 @@ def test_collect_refuses_an_unknown_branch():
 
     with pytest.raises(ValueError, match="extra branches must be among"):
         gate_measure.make_collect(C.tiny(), None, None, extra=("oracle", "nearest"))
+
+
+def test_a_run_without_a_gate_table_is_one_line_and_exit_2(tmp_path, capsys):
+    """Before compiling anything: a run without RUN/gate.json names the command that measures it;
+    a folder that is no run says so."""
+    from gate_headroom import main
+
+    from vags_jax import config as C
+    from vags_jax.stages import checkpoint
+
+    checkpoint.save_config(str(tmp_path), C.tiny())
+    assert main(["--run", str(tmp_path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "has no gate table" in err[0] and "gate_measure --run" in err[0]
+    assert main(["--run", str(tmp_path / "missing")]) == 2
+    assert "does not exist" in capsys.readouterr().err
