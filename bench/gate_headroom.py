@@ -13,7 +13,8 @@ VAGS grasps directly or moves the camera.  From each state, each in its own copy
 * ``random``: the same move and planner, to a uniformly random object cell (does VANet's
   choice beat chance?);
 * ``oracle``: the direct planner on ground-truth top-down maps (no occlusion, no sensor noise):
-  the most any viewpoint could show it;
+  the most any viewpoint could show it, though not a ceiling for a planner that learned on the
+  global view's maps (bench/RESULTS.md, "thirty-third look": GDNet grasped worse on them);
 * ``gdnet``: GDNet's own argmax from the global view, where the run plans its direct grasps
   otherwise (``vags.direct_score="success"``).
 

@@ -1,8 +1,8 @@
 """Ground-truth top-down heightmaps: what a perfect overhead sensor would give.
 
 An oracle for measuring headroom (bench/gate_headroom.py, bench/viewpoint_states.py): no
-viewpoint policy can show GDNet more than this.  A noiseless pinhole camera ``ALTITUDE`` metres above the workspace centre
-looks straight down with one image pixel per heightmap cell, each ray through a cell centre;
+viewpoint policy can show GDNet more than this.  A noiseless pinhole camera ``ALTITUDE`` metres
+above the workspace centre looks straight down with one image pixel per heightmap cell, each ray through a cell centre;
 from that far the rays are parallel to within 4.5 mrad, so every cell gets the height of the
 highest surface above its centre (under 0.5 mm of sideways error at 10 cm of object height)
 and nothing is occluded except by what is above it.  Rendered with the pure-JAX ray caster
