@@ -2,10 +2,10 @@
 
 An oracle for measuring headroom (bench/gate_headroom.py, bench/viewpoint_states.py): no
 viewpoint policy can show GDNet more than this.  A noiseless pinhole camera ``ALTITUDE`` metres
-above the workspace centre looks straight down with one image pixel per heightmap cell, each ray through a cell centre;
-from that far the rays are parallel to within 4.5 mrad, so every cell gets the height of the
-highest surface above its centre (under 0.5 mm of sideways error at 10 cm of object height)
-and nothing is occluded except by what is above it.  Rendered with the pure-JAX ray caster
+above the workspace centre looks straight down with one image pixel per heightmap cell, each ray
+through a cell centre; from that far the rays are parallel to within 4.5 mrad, so every cell
+gets the height of the highest surface above its centre (under 0.5 mm of sideways error at 10 cm
+of object height) and nothing is occluded except by what is above it.  Rendered with the pure-JAX ray caster
 (any device), coloured like the global view (``render.shade``).
 """
 from __future__ import annotations
