@@ -1,7 +1,8 @@
 """Prints the tables of driver.sh in this directory: each pipeline's wall clock (machine_log.txt)
 and its stages' (timings.jsonl) with its compile-ahead children; f44's same-states table
-(bench/gate_headroom.py's headroom.json); f44's benchmark against issue 23's goals
-(bench/viewpoint_goals.py).  Run from anywhere: python bench/results/viewpoints/default/thirtythird_look/tables.py"""
+(bench/gate_headroom.py's headroom.json); the one-object states of f44's and f41's gate tables,
+fresh piles of one object against the last object of a pile; f44's benchmark against issue 23's
+goals (bench/viewpoint_goals.py).  Run from anywhere: python bench/results/viewpoints/default/thirtythird_look/tables.py"""
 import json
 import os
 import re
@@ -64,9 +65,30 @@ def headroom_table():
     print(table(got["summary"]))
 
 
+def one_object_states():
+    """The gate tables' one-object states: a fresh pile of one (attempt 0) or the last object of a
+    pile; how often the table moves there, and both branches' success."""
+    import numpy as np
+
+    print("\n| run | one-object states | n | the table moves % | direct % | after a move % | in its moving bins: n | direct % | after a move % |")
+    print("|---|---|---:|---:|---:|---:|---:|---:|---:|")
+    for run, path in (("f44", os.path.join(HERE, "f44")), ("f41", os.path.join(HERE, "..", "thirtysecond_look", "f41"))):
+        s = np.load(os.path.join(path, "gate_states.npz"))
+        with open(os.path.join(path, "gate.json")) as f:
+            g = json.load(f)
+        moves = (np.asarray(g["move_value"]) > 0)[np.searchsorted(np.asarray(g["edges"]), s["p_direct"], side="right")]
+        one = s["objects"] == 1
+        for name, m in (("fresh pile of one", one & (s["attempt"] == 0)), ("last of a pile", one & (s["attempt"] > 0))):
+            pct = lambda x: f"{100 * np.mean(x):.1f}" if x.size else "-"  # noqa: E731
+            mm = m & moves
+            print(f"| {run} | {name} | {m.sum()} | {pct(moves[m])} | {pct(s['direct_success'][m])} | "
+                  f"{pct(s['moved_success'][m])} | {mm.sum()} | {pct(s['direct_success'][mm])} | {pct(s['moved_success'][mm])} |")
+
+
 def main():
     timing_table()
     headroom_table()
+    one_object_states()
     f44 = os.path.join(HERE, "f44")
     if os.path.isdir(os.path.join(f44, "seed11")):
         print()
