@@ -5,7 +5,6 @@ matplotlib is installed.  Run from anywhere: python bench/results/viewpoints/def
 import gzip
 import json
 import os
-import re
 import subprocess
 import sys
 
@@ -14,40 +13,10 @@ ROOT = os.path.abspath(os.path.join(HERE, "..", "..", "..", "..", ".."))
 RUNS = (("f41", "cold (empty cache)"), ("w42", "warm, --compile-ahead off"), ("w43", "warm, compile ahead (auto)"))
 
 
-def load_jsonl(path):
-    with open(path) as f:
-        return [json.loads(line) for line in f if line.strip()]
-
-
-def wall_clocks():
-    """{run: seconds of its train.py} from machine_log.txt."""
-    with open(os.path.join(HERE, "machine_log.txt")) as f:
-        return {m.group(1): int(m.group(2)) for m in re.finditer(r"^train_([fw]\d+)\S* rc=0 (\d+) s", f.read(), re.M)}
-
-
-def ahead(rows, key):
-    r = rows.get(key)
-    if r is None:
-        return "not run"
-    return f"{r['status']}, {r['compile']['compiled']} compiled, {r['compile']['loaded']} loaded, {r['wall_s']:.0f} s"
-
-
 def timing_table():
-    walls = wall_clocks()
-    print("| run | train.py s | stage 1 s | stage 2 s | stage 3 s | gate table s | loading + compiling s (stages + table) "
-          "| compile ahead: stage 2 / gate table |")
-    print("|---|---:|---:|---:|---:|---:|---:|---|")
-    for run, name in RUNS:
-        path = os.path.join(HERE, run, "timings.jsonl")
-        if not os.path.exists(path):
-            print(f"| {run}, {name} | not run | | | | | | |")
-            continue
-        rows = {r["stage"]: r for r in load_jsonl(path)}
-        stages = ("stage1", "stage2", "stage3", "gate")
-        compiling = sum(rows[s]["compile"]["seconds"] for s in stages if s in rows)
-        print(f"| {run}, {name} | {walls.get(run, '')} | "
-              + " | ".join(f"{rows[s]['wall_s']:.1f}" if s in rows else "" for s in stages)
-              + f" | {compiling:.1f} | {ahead(rows, 'compile_ahead')} / {ahead(rows, 'compile_ahead_gate')} |")
+    sys.path.insert(0, os.path.join(ROOT, "bench"))
+    from pipeline_times import table
+    print(table(HERE, RUNS))
 
 
 def sweep_table():
