@@ -1,8 +1,10 @@
 """Prints the tables of driver.sh in this directory: each pipeline's wall clock (machine_log.txt)
 and its stages' (timings.jsonl) with its compile-ahead children; f44's same-states table
 (bench/gate_headroom.py's headroom.json); the one-object states of f44's and f41's gate tables,
-fresh piles of one object against the last object of a pile; f44's benchmark against issue 23's
+fresh piles of one object against the last object of a pile; the benchmark's one-object rounds
+of f41 and f44, VAGS against its ablation on the same scenes; f44's benchmark against issue 23's
 goals (bench/viewpoint_goals.py).  Run from anywhere: python bench/results/viewpoints/default/thirtythird_look/tables.py"""
+import gzip
 import json
 import os
 import subprocess
@@ -54,10 +56,41 @@ def one_object_states():
                   f"{pct(s['moved_success'][m])} | {mm.sum()} | {pct(s['direct_success'][mm])} | {pct(s['moved_success'][mm])} |")
 
 
+def _report(path):
+    """A report as eval.py wrote it, or gzipped beside (as committed)."""
+    if os.path.exists(path):
+        with open(path) as f:
+            return json.load(f)
+    with gzip.open(path + ".gz", "rt") as f:
+        return json.load(f)
+
+
+def one_object_rounds():
+    """Per run, over seeds 11-13: the one-object rounds where VAGS moved the camera, those the
+    ablation did not clear at its first attempt, how many of those VAGS moved on, and those
+    VAGS did not clear at its first attempt (the reports' per-round outcomes)."""
+    print("\n| run | rounds where VAGS moved | rounds the ablation did not clear on its first attempt "
+          "| of those, rounds where VAGS moved | rounds VAGS did not clear on its first attempt |")
+    print("|---|---:|---:|---:|---:|")
+    dirs = (("f41", os.path.join(HERE, "..", "seed{s}")), ("f44", os.path.join(HERE, "f44", "seed{s}")))
+    for run, pattern in dirs:
+        moved = failed = caught = vags_failed = 0
+        for seed in (11, 12, 13):
+            d = pattern.format(s=seed)
+            v = _report(os.path.join(d, "eval_vags.json"))["outcomes"]["1"]
+            a = _report(os.path.join(d, "eval_vags-no-viewpoint.json"))["outcomes"]["1"]
+            m = {i for i, (n, t) in enumerate(zip(v["motions"], v["attempts"])) if n > t}
+            f = {i for i, (t, ok) in enumerate(zip(a["attempts"], a["successes"])) if t > 1 or ok < 1}
+            moved, failed, caught = moved + len(m), failed + len(f), caught + len(f & m)
+            vags_failed += sum(1 for t, ok in zip(v["attempts"], v["successes"]) if t > 1 or ok < 1)
+        print(f"| {run} | {moved} | {failed} | {caught} | {vags_failed} |")
+
+
 def main():
     timing_table()
     headroom_table()
     one_object_states()
+    one_object_rounds()
     f44 = os.path.join(HERE, "f44")
     if os.path.isdir(os.path.join(f44, "seed11")):
         print()
