@@ -15,6 +15,8 @@ VAGS grasps directly or moves the camera.  From each state, each in its own copy
 * ``oracle``: the direct planner on ground-truth top-down maps (no occlusion, no sensor noise):
   the most any viewpoint could show it, though not a ceiling for a planner that learned on the
   global view's maps (bench/RESULTS.md, "thirty-third look": GDNet grasped worse on them);
+* ``planned``: no move; the success net's direct grasp on the global view (what
+  ``vags.direct_score="success"`` grasps): a move's gain over the same planner without moving;
 * ``gdnet``: GDNet's own argmax from the global view, where the run plans its direct grasps
   otherwise (``vags.direct_score="success"``).
 
@@ -22,8 +24,8 @@ The states are the table's own (its worlds, steps and seed): the piles follow th
 and the "direct" and "moved" outcomes repeat those of RUN/gate_states.npz (``agreement``, where
 the device computes bit for bit).  Reported per subset (all states; where the gate grasps
 directly; where it moves) and per object count (1, 2-5, 6-10): each branch's success, the paired
-differences (``moved - direct``, ``oracle - direct``, ``moved - random``) with their standard
-errors, and the AUROC with which the gate's estimate (p_direct) and GDNet's Q at its grasp
+differences (``moved - direct``, ``oracle - direct``, ``moved - random``, ``moved - planned``)
+with their standard errors, and the AUROC with which the gate's estimate (p_direct) and GDNet's Q at its grasp
 (q_direct) rank the direct grasp's success.  Markdown on stdout; ``--out`` JSON; ``--rows`` the
 per-state values (.npz: every branch's success, lost and seconds, the estimates, objects, and
 ``gate_moves``, the gate's decision) for analysis.
@@ -42,8 +44,8 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 from gate_estimates import auroc  # noqa: E402
 
-BRANCHES = ("direct", "moved", "random", "oracle", "gdnet")
-PAIRS = (("moved", "direct"), ("oracle", "direct"), ("moved", "random"))
+BRANCHES = ("direct", "moved", "random", "oracle", "planned", "gdnet")
+PAIRS = (("moved", "direct"), ("oracle", "direct"), ("moved", "random"), ("moved", "planned"))
 OBJECTS = (("all", 1, 10 ** 6), ("1", 1, 1), ("2-5", 2, 5), ("6-10", 6, 10))
 
 

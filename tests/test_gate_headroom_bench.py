@@ -17,6 +17,7 @@ def _states():
             "moved_success": np.array([1, 1, 1, 1, 0, 1], bool),
             "random_success": np.array([0, 1, 0, 0, 0, 0], bool),
             "oracle_success": np.array([1, 1, 1, 1, 1, 1], bool),
+            "planned_success": np.array([1, 0, 1, 1, 1, 0], bool),
             "p_direct": np.array([0.9, 0.2, 0.8, 0.3, 0.7, 0.1]),
             "q_direct": np.array([0.1, 0.9, 0.5, 0.5, 0.2, 0.8])}
 
@@ -35,6 +36,7 @@ def test_branches_split_by_the_gates_decision_and_object_count():
     assert move["states"] == 3 and move["direct"] == 0.0 and move["moved"] == 1.0
     assert move["moved - direct"]["difference"] == 1.0 and move["moved - direct"]["se"] == 0.0
     assert move["moved - random"]["difference"] == pytest.approx(2 / 3)
+    assert move["planned"] == pytest.approx(1 / 3) and move["moved - planned"]["difference"] == pytest.approx(2 / 3)
     direct = s["gate: direct"]["6-10"]  # state 4 alone: one state has no standard error
     assert direct["states"] == 1 and direct["moved - direct"] == {"difference": -1.0, "se": None}
     assert s["gate: move"]["1"]["states"] == 1 and s["gate: direct"]["2-5"]["states"] == 1
@@ -50,7 +52,8 @@ def test_auroc_of_the_gate_estimate_and_of_gdnets_q():
 
 def test_table_rows_and_agreement():
     text = table(summarize(_states(), MOVES))
-    assert "| gate: move | all | 3 | 0.0 | 100.0 | 33.3 | 100.0 | +100.0 ± 0.0 | +100.0 ± 0.0 | +66.7 ± 33.3 |" in text
+    assert ("| gate: move | all | 3 | 0.0 | 100.0 | 33.3 | 100.0 | 33.3 | +100.0 ± 0.0 | +100.0 ± 0.0 | +66.7 ± 33.3 "
+            "| +66.7 ± 33.3 |") in text
     assert "| gate: direct | 6-10 | 1 |" in text and "| -100.0 |" in text  # no ± with one state
     assert "| gate: move | 6-10 | 1 |" in text
     s = _states()

@@ -49,7 +49,7 @@ from vags_jax.perception.topdown import TopDown
 from vags_jax.policies import rate_gate
 from vags_jax.policies.catalog import vags_params
 from vags_jax.policies.decision import (CLOSE_SCORES, DIRECT_SCORES, GATE_ESTIMATES, VagsNets, close_view_grasp,
-                                        decide, greedy, success_estimates)
+                                        decide, direct_grasp, greedy, success_estimates)
 from vags_jax.rl.exploration import random_object_cell
 from vags_jax.stages import checkpoint, rundir
 from vags_jax.stages.programs import Programs
@@ -59,8 +59,10 @@ STATES_FILE = rate_gate.STATES_FILE
 FOLLOW = ("direct", "moved")  # the branch the piles follow from one measured state to the next
 # Diagnostic branches (``bench/gate_headroom.py``), never in the pipeline's table: "oracle", the
 # direct planner on ground-truth top-down maps (the most any viewpoint could show it); "random",
-# the move and close-view grasp of "moved" but to a uniformly random object cell.
-EXTRA_BRANCHES = ("oracle", "random")
+# the move and close-view grasp of "moved" but to a uniformly random object cell; "planned", no
+# move, the success net's direct grasp on the global view (``vags.direct_score="success"``), to
+# tell a move's gain from its planner's.
+EXTRA_BRANCHES = ("oracle", "random", "planned")
 
 
 def make_collect(cfg, env: VagsEnv, nets: VagsNets, extra: tuple = ()):
@@ -94,8 +96,9 @@ def make_collect(cfg, env: VagsEnv, nets: VagsNets, extra: tuple = ()):
                        f"{name}_motions": attempt.motions,
                        f"{name}_travel": r.approach + r.descend + r.lift + attempt.view_travel, f"{name}_back": back}
 
-    def extra_rows(params, key, state):
-        """The rows of the ``extra`` branches from ``state``."""
+    def extra_rows(params, key, state, q_grasp, q_success):
+        """The rows of the ``extra`` branches from ``state`` (q_grasp, q_success: GDNet's and the
+        success net's maps of its global view)."""
         rows = {}
         if "oracle" in extra:
             color, height = topdown.maps(state.sim)
@@ -111,6 +114,9 @@ def make_collect(cfg, env: VagsEnv, nets: VagsNets, extra: tuple = ()):
             moved, _ = close_view_grasp(cfg, env, state, view, k_img, nets.close_q(params), params.get("ggcnn"),
                                         nets.ggcnn, nets.close_success_q(params))
             rows.update(branch("random", state, moved)[1])
+        if "planned" in extra:
+            g = direct_grasp(q_grasp, q_success, "success")[0]
+            rows.update(branch("planned", state, env.direct_attempt(*env.grasp_pose(state, g[:, 1:], g[:, 0])))[1])
         return rows
 
     def step(params, key, state, follow_moved):
@@ -129,7 +135,8 @@ def make_collect(cfg, env: VagsEnv, nets: VagsNets, extra: tuple = ()):
             _, rows_gdnet = branch("gdnet", state, env.direct_attempt(*env.grasp_pose(state, g[:, 1:], g[:, 0])))
             rows_direct = {**rows_direct, **rows_gdnet}
         if extra:
-            rows_direct = {**rows_direct, **extra_rows(params, jax.random.fold_in(key, 1), state)}
+            rows_direct = {**rows_direct, **extra_rows(params, jax.random.fold_in(key, 1), state, q_grasp,
+                                                        q_success)}
         estimates = success_estimates(q_success, q_grasp, d.grasp)
         out = {"p_direct": estimates[f"p_{cfg.vags.gate_estimate}"], **estimates,
                "objects": env.n_remaining(state), "live": (env.n_remaining(state) > 0) & ~state.sim.error,
