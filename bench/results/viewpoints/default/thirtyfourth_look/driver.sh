@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# Written on 2026-12-07 before any device call of its session.
+# Issue 23, two questions on today's `gpu` preset:
+# 1. On the same states, is the gain after a move the move's or its planner's?  A fresh pipeline
+#    f47 (seed 47, from an empty compile cache), then bench/gate_headroom.py on its gate table's
+#    states with every diagnostic branch: direct (GDNet's argmax), moved (VANet's viewpoint, the
+#    success net's argmax on the fused maps), random (a random object cell), oracle (GDNet on
+#    ground-truth maps) and planned (no move: the success net's argmax on the global view).
+# 2. The thirtieth look's benchmark comparison, last made on an older preset: f47's VAGS, its
+#    ablation (GDNet's direct grasp) and the ablation with the success net's direct grasp
+#    (`--no-viewpoint --set vags.direct_score=success`), groups 1-10 x 50 rounds, seeds 11-13.
+# Fixed before the run:
+# * f41 stays issue 23's final run: f47 is a replicate, reported beside it, whatever its figures.
+# * No default changes on this run: it measures, it does not select.
+# On ONE bare H100 (or H200), after the wheels.
+# Poll with: bash /root/src/bench/results/throughput/forward_needed/poll.sh 560 /root/res/machine_log.txt
+S=/root/src
+export PYTHONPATH=/root/vags-site:$S PYTHONUNBUFFERED=1 CUDA_VISIBLE_DEVICES=0
+unset JAX_COMPILATION_CACHE_DIR
+cd $S
+RES=/root/res; mkdir -p $RES; log=$RES/machine_log.txt
+echo "start $(date +%T) $(nvidia-smi --query-gpu=name --format=csv,noheader | tr '\n' ' ')" > $log
+run() { k=$1; shift; t=$(date +%s); "$@" > $RES/$k.txt 2>&1; rc=$?; echo "$k rc=$rc $(( $(date +%s)-t )) s $(date +%T)" >> $log; return $rc; }
+keep() { mkdir -p $2; for f in config.json metrics.jsonl timings.jsonl summary.json gate.json gate_states.npz compile_ahead.log compile_ahead_gate.log; do cp $1/$f $2/ 2>/dev/null; done
+         for s in stage2 stage3; do [ -f $1/$s/metrics.jsonl ] && cp $1/$s/metrics.jsonl $2/${s}_metrics.jsonl; done; }
+C=/root/cc
+ev() { XLA_PYTHON_CLIENT_PREALLOCATE=false XLA_PYTHON_CLIENT_MEM_FRACTION=0.3 run "$@"; }
+E="--seeds 11,12,13 --cache-dir $C"
+R=/root/runs/f47; O=$RES/f47
+run train_f47 timeout 700 python train.py --config gpu --set seed=47 --out $R --cache-dir $C --json
+keep $R $O
+if [ -f $R/summary.json ]; then
+  run headroom_f47 python bench/gate_headroom.py --run $R --cache-dir $C --out $O/headroom.json --rows $O/headroom_rows.npz
+  ev vags_f47 python eval.py --run $R $E --out "$O/seed{seed}/eval_vags.json" &
+  ev abl_f47 python eval.py --run $R --no-viewpoint $E --out "$O/seed{seed}/eval_vags-no-viewpoint.json" &
+  ev abls_f47 python eval.py --run $R --no-viewpoint --set vags.direct_score=success $E --out "$O/success/seed{seed}/eval_vags-no-viewpoint.json" &
+  wait
+fi
+echo "done $(date +%T)" >> $log
