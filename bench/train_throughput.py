@@ -83,11 +83,15 @@ def flops_of(jitted, *args) -> float:
 
 def random_batch(cfg, key, b: int):
     """A replay sample of ``b`` random transitions of this config's heightmap size (in stage 1's
-    replay type: with ``stage1.bootstrap = "actor"`` values instead of next states)."""
+    replay type: with ``stage1.bootstrap = "actor"`` values instead of next states, with
+    ``"actor_argmax"`` next actions beside them)."""
     t, _ = random_transitions(cfg, key, b)
     if cfg.stage1.bootstrap == "actor":
         t = replay.make_valued_transition(t.color, t.height, t.action, t.reward, t.done).replace(
             next_value=jax.random.uniform(key, (b,)))
+    elif cfg.stage1.bootstrap == "actor_argmax":  # random actions stand in for the actor's argmax
+        t = replay.make_argmax_transition(t.color, t.height, t.action, t.reward, t.next_color, t.next_height,
+                                          t.done).replace(next_action=jnp.roll(t.action, 1, axis=0))
     buffer = replay.add(replay.init(b, jax.tree.map(lambda x: x[0], t)), t)
     _, batch, w = replay.sample(buffer, key, cfg.dqn.batch_size, cfg.replay.alpha, cfg.replay.beta)
     return batch, w
@@ -98,7 +102,8 @@ def update_mfu(cfg, peak: float, n_updates: int, reps: int = 3, parts: bool = Tr
     and where the update's time goes (each part jitted alone on the same arrays).
 
     Model FLOPs (``flop_count``): the target network's pass over every rotation of the next
-    states (twice with ``double_q``; none with gamma 0 or ``stage1.bootstrap = "actor"``) plus 3 x the online network's forward
+    states (twice with ``double_q``; none with gamma 0 or ``stage1.bootstrap = "actor"``; one
+    rotation's share with ``"actor_argmax"``) plus 3 x the online network's forward
     pass at the executed rotations (train mode).  XLA's own count is kept beside it
     (``xla_flops``): on an H100 it counted 1-3 % of the model FLOPs (bench/RESULTS.md).
     ``parts=False`` skips the parts and XLA's count, each a compile of its own (DenseNet-121's
@@ -128,6 +133,8 @@ def update_mfu(cfg, peak: float, n_updates: int, reps: int = 3, parts: bool = Tr
     online = lambda v: apply(v, batch.color, batch.height.astype(jnp.float32), True,  # noqa: E731
                              mutable=["batch_stats"], rotations=rot)[0]
     passes = 0 if cfg.dqn.gamma == 0 or not has_next else (2 if cfg.dqn.double_q else 1)
+    if passes and cfg.stage1.bootstrap == "actor_argmax":
+        passes = 1 / cfg.net.n_rotations  # the target network at one rotation of each next state
     f_target, f_online = forward_flops(target, variables), forward_flops(online, variables)
     flops = passes * f_target + 3 * f_online
     result = {"trunk": cfg.net.trunk, "dtype": cfg.net.dtype, "batch_size": cfg.dqn.batch_size,

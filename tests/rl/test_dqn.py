@@ -1,4 +1,6 @@
 """DQN pieces: hand-computed Huber loss / gradients / targets, optimizer, and the update step."""
+import dataclasses
+
 import flax.linen as nn
 import jax
 import jax.numpy as jnp
@@ -273,3 +275,54 @@ def test_a_stored_bootstrap_value_gives_the_target_networks_update():
     # Symmetric labels without n_rotations have no R to mirror by: a clear error.
     with pytest.raises(ValueError, match="n_rotations"):
         dqn.make_update_step(_rotation_net, cfg, executed_rotation_only=True)(ts, valued, w)
+
+
+def test_the_actors_argmax_gives_double_qs_target():
+    """``stage1.bootstrap = "actor_argmax"``: a batch that carries the online network's argmax on
+    its next states updates exactly as Double DQN's update (target network's pass over every
+    rotation, online network's argmax) would, from a target pass over one rotation per state."""
+    rng = np.random.default_rng(2)
+    b = 6
+    grasp = replay.make_grasp_transition(
+        rng.integers(0, 256, (b, H, W, 3)), rng.uniform(0, 0.1, (b, H, W)),
+        np.stack([rng.integers(0, R, b), rng.integers(0, H, b), rng.integers(0, W, b)], 1),
+        rng.integers(0, 2, b).astype(np.float32), rng.integers(0, 256, (b, H, W, 3)), rng.uniform(0, 0.1, (b, H, W)),
+        np.array([False, True, False, False, True, False]))
+    variables = {"params": {"w": jnp.asarray(rng.normal(size=R), jnp.float32),
+                            "c": jnp.asarray(rng.normal(size=R), jnp.float32)}, "batch_stats": {}}
+    cfg = DQN(optimizer="sgd", learning_rate=0.1, gamma=0.5, symmetric_grasp_label=True)
+    ts = dqn.create_train_state(variables, cfg)
+    # A target network whose argmax differs from the online one's: the rotations' weights reversed.
+    ts = ts.replace(target_params=jax.tree.map(lambda x: x[::-1], ts.target_params))
+    next_h = grasp.next_height.astype(jnp.float32)
+    online_q = _rotation_net({"params": ts.params}, grasp.next_color, next_h, False)
+    target_q = _rotation_net({"params": ts.target_params}, grasp.next_color, next_h, False)
+    greedy = jnp.stack(jnp.unravel_index(jnp.argmax(online_q.reshape(b, -1), -1), (R, H, W)), -1).astype(jnp.int32)
+    assert not np.array_equal(np.asarray(greedy), np.stack(np.unravel_index(
+        np.asarray(target_q).reshape(b, -1).argmax(-1), (R, H, W)), -1))  # the two nets disagree
+    stored = replay.make_argmax_transition(grasp.color, grasp.height, grasp.action, grasp.reward, grasp.next_color,
+                                           grasp.next_height, grasp.done).replace(next_action=greedy)
+    w = jnp.asarray(rng.uniform(0.2, 1.0, b), jnp.float32)
+    calls = []
+
+    def counting_net(variables, color, height, train, mutable=False, rotations=None):
+        calls.append(None if rotations is None else rotations.shape)
+        return _rotation_net(variables, color, height, train, mutable, rotations)
+
+    double = dqn.make_update_step(_rotation_net, dataclasses.replace(cfg, double_q=True),
+                                  executed_rotation_only=True)(ts, grasp, w)
+    update = jax.jit(dqn.make_update_step(counting_net, cfg, executed_rotation_only=True, n_rotations=R))
+    out = update(ts, stored, w)
+    assert calls[0] == (b, 1)  # the target pass: one rotation of each next state
+    np.testing.assert_allclose(out[1]["target_mean"], double[1]["target_mean"], rtol=1e-6)
+    np.testing.assert_allclose(out[2], double[2], rtol=1e-6)
+    for k in ("w", "c"):
+        np.testing.assert_allclose(out[0].params[k], double[0].params[k], rtol=1e-6)
+    # By hand: y = r + 0.5 * Q_target(s', stored action), r alone where done.
+    tq = np.asarray(target_q)
+    a = np.asarray(greedy)
+    y = np.asarray(grasp.reward) + 0.5 * np.where(np.asarray(grasp.done), 0.0, tq[np.arange(b), a[:, 0], a[:, 1], a[:, 2]])
+    np.testing.assert_allclose(float(out[1]["target_mean"]), y.mean(), rtol=1e-6)
+    # Another stored action reads another value: the target follows the stored action.
+    moved = stored.replace(next_action=stored.next_action.at[:, 0].set((greedy[:, 0] + 1) % R))
+    assert not np.allclose(update(ts, moved, w)[1]["target_mean"], out[1]["target_mean"])

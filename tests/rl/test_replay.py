@@ -238,3 +238,24 @@ def test_pending_items_are_never_sampled_until_their_values_come():
     st = fill(st, jnp.array([30.0, 31.0, 32.0, 33.0]))
     np.testing.assert_array_equal(st.data.next_value, [31, 32, 33, 21, 23, 30])
     assert int(replay.sampleable(st)) == 6
+
+
+def test_pending_items_take_their_worlds_next_action():
+    """``fill_pending_actions`` (``stage1.bootstrap = "actor_argmax"``): the last add's pending
+    items take their own world's greedy action and become sampleable; older items keep theirs."""
+    k = 3
+    z = jnp.zeros((k, 2, 2, 3))
+    def items():
+        return replay.make_argmax_transition(z, z[..., 0], jnp.zeros((k, 3), jnp.int32), jnp.ones((k,)), z, z[..., 0],
+                                             jnp.zeros((k,), bool))
+    st = replay.init(5, jax.tree.map(lambda x: x[0], items()))
+    st = replay.add(st, items(), jnp.array([False, True, True]), pending=True)  # worlds 1 and 2
+    assert int(replay.sampleable(st)) == 0 and st.data.next_color.shape == (5, 2, 2, 3)
+    acts = jnp.array([[1, 0, 0], [2, 1, 0], [3, 0, 1]], jnp.int32)
+    st = replay.fill_pending_actions(st, acts)
+    np.testing.assert_array_equal(st.data.next_action[:2], [[2, 1, 0], [3, 0, 1]])
+    assert int(replay.sampleable(st)) == 2
+    st = replay.add(st, items(), jnp.array([True, False, False]), pending=True)  # world 0
+    st = replay.fill_pending_actions(st, acts[::-1])
+    np.testing.assert_array_equal(st.data.next_action[:3], [[2, 1, 0], [3, 0, 1], [3, 0, 1]])
+    assert int(replay.sampleable(st)) == 3

@@ -616,7 +616,7 @@ class Exploration:
         _within("Exploration.height_threshold", self.height_threshold, 0, 1.0, "metres", hi_open=True)
 
 
-STAGE_BOOTSTRAPS = ("target_network", "actor")
+STAGE_BOOTSTRAPS = ("target_network", "actor", "actor_argmax")
 
 
 @dataclass(frozen=True)
@@ -635,7 +635,10 @@ class Stage:
     # Where the TD target's max Q of the next state comes from: "target_network", a pass of the
     # target network over every sampled next state at each update; "actor" (stage 1 only), the
     # online network's max as the actor computed it when it acted on that state, stored in replay
-    # (VPG's stored labels): no pass over next states in the update, and no next states in replay.
+    # (VPG's stored labels): no pass over next states in the update, and no next states in replay;
+    # "actor_argmax" (stage 1 only), the target network's value at the action the actor chose
+    # greedily on that state, stored in replay (Double DQN's target with the actor's argmax): the
+    # update's target pass covers that one rotation of each next state instead of all.
     bootstrap: str = "target_network"
     # With bootstrap "actor": store each value clipped to [0, 1 / (1 - dqn.gamma)], the range of any
     # discounted return of 0/1 grasp rewards (a barely trained actor's values overshoot it).
@@ -1185,12 +1188,17 @@ class Config:
         for name in ("stage2", "stage3", "nbv", "vpg"):
             _check(getattr(self, name).bootstrap == "target_network",
                    f"{name}.bootstrap = {getattr(self, name).bootstrap!r}: only stage 1 can bootstrap from the "
-                   f"actor's values; set {name}.bootstrap=target_network")
+                   f"actor's values or actions; set {name}.bootstrap=target_network")
         if self.stage1.bootstrap == "actor":
             _check(not self.dqn.double_q,
                    "stage1.bootstrap = 'actor' stores the actor's max Q of the next state, so it cannot "
                    "take double Q's target-network value at the online argmax; set dqn.double_q=false or "
                    "stage1.bootstrap=target_network")
+        if self.stage1.bootstrap == "actor_argmax":
+            _check(not self.dqn.double_q,
+                   "stage1.bootstrap = 'actor_argmax' already takes the target network's value at the "
+                   "actor's argmax (a double-Q target); dqn.double_q would add the online network's full pass "
+                   "over the next state: set dqn.double_q=false or stage1.bootstrap=target_network")
         d = self.parallel.devices
         for what, n in (("stage1.n_worlds", self.stage1.n_worlds), ("replay.capacity", self.replay.capacity),
                         ("dqn.batch_size", self.dqn.batch_size)):

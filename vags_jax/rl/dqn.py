@@ -161,8 +161,12 @@ def make_update_step(apply_fn: Callable, cfg: DQN, executed_rotation_only: bool 
 
     A batch of :class:`vags_jax.rl.replay.ValuedGraspTransition` carries its bootstrap value:
     y = r + gamma * next_value (none where ``done``), with no pass over the next state (VPG
-    stores its labels so).  ``n_rotations`` (GDNet's R) is then needed for
-    ``cfg.symmetric_grasp_label``, whose mirror rotation otherwise comes from the target pass.
+    stores its labels so).  A batch of :class:`vags_jax.rl.replay.ArgmaxGraspTransition`
+    carries the action the actor chose greedily on the next state: y = r + gamma *
+    Q_target(s', next_action) (Double DQN's target with the actor's argmax), from the target
+    network's pass at that one rotation (``apply_fn(..., rotations=(b, 1))``).  ``n_rotations``
+    (GDNet's R) is needed with either for ``cfg.symmetric_grasp_label``, whose mirror rotation
+    otherwise comes from the full target pass.
 
     ``axis_name`` (data-parallel training, under ``jax.shard_map``): ``batch`` is this device's
     share of the batch; the gradients and the metrics are averaged over the axis before the
@@ -182,6 +186,12 @@ def make_update_step(apply_fn: Callable, cfg: DQN, executed_rotation_only: bool 
             y = jax.lax.stop_gradient(batch.reward.astype(jnp.float32))
         elif isinstance(batch, replay.ValuedGraspTransition):  # the value the actor's pass stored
             v = jnp.where(batch.done, 0.0, batch.next_value.astype(jnp.float32))
+            y = jax.lax.stop_gradient(batch.reward.astype(jnp.float32) + cfg.gamma * v)
+        elif isinstance(batch, replay.ArgmaxGraspTransition):  # the target's value at the actor's argmax
+            a = batch.next_action
+            next_q_t = apply_fn(target_vars, batch.next_color, batch.next_height.astype(jnp.float32), False,
+                                rotations=a[:, :1])  # (b, 1, H, W): one rotation of each next state
+            v = jnp.where(batch.done, 0.0, q_at_action(next_q_t.astype(jnp.float32), a.at[:, 0].set(0)))
             y = jax.lax.stop_gradient(batch.reward.astype(jnp.float32) + cfg.gamma * v)
         else:
             next_color, next_height = batch.next_color, batch.next_height.astype(jnp.float32)

@@ -10,7 +10,7 @@ Pure functions over a :class:`ReplayState` pytree, in the style of flashbax::
 Everything is jittable with fixed shapes; ``capacity`` and the batch sizes are static.
 Items added with ``pending=True`` keep priority 0 (never sampled, but counted in ``size``)
 until ``fill_pending_values`` gives them their bootstrap value (stage 1's ``bootstrap =
-"actor"``).
+"actor"``) or ``fill_pending_actions`` their next state's greedy action (``"actor_argmax"``).
 
 Priorities
     Stored raw, ``p_i = |td_i| + eps``; the exponent ``alpha`` is applied at sampling time,
@@ -148,6 +148,41 @@ def make_valued_transition(color, height, action, reward, done, height_dtype=jnp
     )
 
 
+@flax.struct.dataclass
+class ArgmaxGraspTransition:
+    """A grasp attempt stored with its next state and the action the actor chose greedily there
+    (stage 1 with ``stage1.bootstrap = "actor_argmax"``): the update's target is the target
+    network's value at that action, one rotation's pass instead of all.  Shapes per item:
+    :class:`GraspTransition`'s fields, and
+
+    next_action: (3,) int32 [rotation, row, col], the argmax of the online network's Q on the next
+                            state as the actor computed it when it acted there (0 until then: see
+                            ``add``'s ``pending``)
+    world:       ()   int32 the world (this device's index) that made the attempt
+    """
+
+    color: jax.Array
+    height: jax.Array
+    action: jax.Array
+    reward: jax.Array
+    next_color: jax.Array
+    next_height: jax.Array
+    done: jax.Array
+    next_action: jax.Array
+    world: jax.Array
+
+
+def make_argmax_transition(color, height, action, reward, next_color, next_height, done,
+                           height_dtype=jnp.float16) -> ArgmaxGraspTransition:
+    """A batch of K :class:`ArgmaxGraspTransition` made by worlds 0..K-1 (leading dim K, fields
+    as :func:`make_grasp_transition`'s), their ``next_action`` still 0."""
+    t = make_grasp_transition(color, height, action, reward, next_color, next_height, done, height_dtype)
+    k = t.reward.shape[0]
+    return ArgmaxGraspTransition(color=t.color, height=t.height, action=t.action, reward=t.reward,
+                                 next_color=t.next_color, next_height=t.next_height, done=t.done,
+                                 next_action=jnp.zeros((k, 3), jnp.int32), world=jnp.arange(k, dtype=jnp.int32))
+
+
 # ----------------------------------------------------------------------------- buffer
 
 
@@ -196,7 +231,8 @@ def add(state: ReplayState, transitions: PyTree, mask: Optional[jax.Array] = Non
     mask: optional (K,) bool; only the masked transitions are written (in order, packed
     together), the others are dropped.
     pending: the items get priority 0 instead, so that ``sample`` never draws them, until
-    ``fill_pending_values`` gives them their bootstrap value (``ValuedGraspTransition``).
+    ``fill_pending_values`` gives them their bootstrap value (``ValuedGraspTransition``) or
+    ``fill_pending_actions`` their next action (``ArgmaxGraspTransition``).
     """
     leaves = jax.tree.leaves(transitions)
     k = leaves[0].shape[0]
@@ -229,12 +265,22 @@ def fill_pending_values(state: ReplayState, values: jax.Array) -> ReplayState:
     Only that add's items can be pending (priorities are ``|td| + eps`` > 0 once set), and they
     are the K slots before ``insert_pos`` at most: those of them with priority 0 inside
     ``[0, size)`` are filled from ``values[item.world]``.  Needs ``capacity >= K``."""
+    return _fill_pending(state, "next_value", values.astype(jnp.float32))
+
+
+def fill_pending_actions(state: ReplayState, actions: jax.Array) -> ReplayState:
+    """``fill_pending_values`` for :class:`ArgmaxGraspTransition`: ``actions`` (K, 3) int32 is
+    the greedy action [rotation, row, col] of each world's current state."""
+    return _fill_pending(state, "next_action", actions.astype(jnp.int32))
+
+
+def _fill_pending(state: ReplayState, field: str, values: jax.Array) -> ReplayState:
     k, cap = values.shape[0], state.capacity
     idx = (state.insert_pos - 1 - jnp.arange(k, dtype=jnp.int32)) % cap
     pend = (idx < state.size) & (state.priorities[idx] == 0)
     slot = jnp.where(pend, idx, cap)  # cap = out of range: left alone
-    v = values.astype(jnp.float32)[state.data.world[idx]]
-    data = state.data.replace(next_value=state.data.next_value.at[slot].set(v, mode="drop"))
+    v = values[state.data.world[idx]]
+    data = state.data.replace(**{field: getattr(state.data, field).at[slot].set(v, mode="drop")})
     return state.replace(data=data, priorities=state.priorities.at[slot].set(state.max_priority, mode="drop"))
 
 

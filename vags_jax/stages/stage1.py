@@ -17,7 +17,10 @@ One *iteration* is, for every world at once:
      "actor"`` a transition stores no next state: it waits in replay, never sampled, until the
      next iteration's step 1 gives it the largest Q of the world's next state as its bootstrap
      value (``replay.fill_pending_values``; clipped to [0, 1 / (1 - gamma)] with
-     ``stage1.bootstrap_clip``), and the updates make no pass over next states;
+     ``stage1.bootstrap_clip``), and the updates make no pass over next states.  With
+     ``"actor_argmax"`` a transition keeps its next state and waits for the next iteration's
+     greedy action there (``replay.fill_pending_actions``); the updates' target is the target
+     network's value at that action, a pass over one rotation of each next state instead of all;
   5. ``updates_per_iteration`` DQN updates from replay (once it holds ``learning_starts``).
 
 Everything is one ``lax.scan`` over iterations inside one jit: no host round trip per step.
@@ -48,7 +51,8 @@ class Stage1State:
 
     env: B worlds (``EnvState``); learner: GDNet online/target variables + optimizer state;
     replay: prioritized replay of ``GraspTransition`` (``ValuedGraspTransition`` with
-    ``stage1.bootstrap = "actor"``, the last iteration's items still waiting for their values);
+    ``stage1.bootstrap = "actor"``, ``ArgmaxGraspTransition`` with ``"actor_argmax"``, the last
+    iteration's items still waiting for their values or actions);
     key: (2,) uint32; iteration: () int32; attempts: () int32, grasp attempts made so far (all
     worlds).  (Which worlds start a new
     round in the next iteration follows from ``env``: ``round_over`` or a physics error.)
@@ -91,6 +95,8 @@ class Stage1:
         self.env = env if env is not None else VagsEnv(cfg)
         self.net = make_qnet(cfg.net, "gdnet", axis_name)
         self.actor_bootstrap = cfg.stage1.bootstrap == "actor"
+        self.actor_argmax = cfg.stage1.bootstrap == "actor_argmax"
+        self.pending = self.actor_bootstrap or self.actor_argmax  # items wait for the next iteration's pass
         # The largest discounted return of 0/1 rewards: the stored values' ceiling when clipped.
         self.value_cap = 1.0 / (1.0 - cfg.dqn.gamma) if cfg.stage1.bootstrap_clip else None
         self.update = dqn.make_update_step(self._apply, cfg.dqn, executed_rotation_only=True, axis_name=axis_name,
@@ -122,10 +128,11 @@ class Stage1:
     def _valued(self, grasped: jax.Array, explored: jax.Array) -> jax.Array:
         """(B,) bool: the worlds whose Q maps this iteration uses.  Every world unless
         ``net.forward_needed_only``; with it, the grasping worlds that take the greedy action
-        (with ``bootstrap = "actor"`` every grasping world: its largest Q is a stored value)."""
+        (with ``bootstrap = "actor"`` or ``"actor_argmax"`` every grasping world: its largest Q
+        or its argmax is stored)."""
         if not self.cfg.net.forward_needed_only:
             return jnp.ones_like(grasped)
-        return grasped if self.actor_bootstrap else grasped & ~explored
+        return grasped if self.pending else grasped & ~explored
 
     def _q_maps(self, variables, s: EnvState, valued: jax.Array) -> jax.Array:
         """GDNet (eval mode) on the worlds' heightmaps -> (B, R, H, W): one pass over every world,
@@ -160,9 +167,12 @@ class Stage1:
 
     def transitions(self, s: EnvState, action: jax.Array, reward: jax.Array, s2: EnvState, done: jax.Array):
         """The B worlds' transitions from ``s`` to ``s2`` in this stage's replay type: action (B, 3),
-        reward and done (B,).  With ``bootstrap = "actor"`` their values are still to come."""
+        reward and done (B,).  With ``bootstrap = "actor"`` their values are still to come, with
+        ``"actor_argmax"`` their next states' greedy actions."""
         if self.actor_bootstrap:
             return replay.make_valued_transition(s.color, s.height, action, reward, done)
+        if self.actor_argmax:
+            return replay.make_argmax_transition(s.color, s.height, action, reward, s2.color, s2.height, done)
         return replay.make_grasp_transition(s.color, s.height, action, reward, s2.color, s2.height, done)
 
     def init_worlds(self, k_n: jax.Array, k_env: jax.Array):
@@ -194,7 +204,7 @@ class Stage1:
         """updates_per_iteration DQN updates (skipped until replay holds learning_starts)."""
         s = self.cfg.stage1
         return dqn.learn_from_replay(self.update, learner, buffer, key, self.cfg, s.updates_per_iteration,
-                                     s.learning_starts, self.axis_name, count_pending=self.actor_bootstrap)
+                                     s.learning_starts, self.axis_name, count_pending=self.pending)
 
     def _iteration(self, state: Stage1State, _):
         cfg, env = self.cfg, self.env
@@ -211,6 +221,8 @@ class Stage1:
         buffer = state.replay
         if self.actor_bootstrap:  # last iteration's transitions get their next state's value
             buffer = replay.fill_pending_values(buffer, self.bootstrap_values(q))
+        if self.actor_argmax:  # ... or their next state's greedy action
+            buffer = replay.fill_pending_actions(buffer, exploration.greedy_grasp(q))
 
         noise_key = k_grasp if cfg.camera.noise.enabled else None
         # Grasps of the playing worlds and new scenes of the worlds whose round ended, in one
@@ -222,7 +234,7 @@ class Stage1:
         cleared = grasped & (env.n_remaining(s2) == 0)
         over = env.round_over(s2) | s2.sim.error
         buffer = replay.add(buffer, self.transitions(s, action, reward, s2, over), mask=grasped,
-                            pending=self.actor_bootstrap)
+                            pending=self.pending)
         learner, buffer, (loss, td_abs), n_updates = self._learn(state.learner, buffer, k_learn)
 
         # Metrics over all worlds: totals and means over the devices (each holds as many worlds).
@@ -302,9 +314,14 @@ def checkpoint_layout(cfg: Config) -> dict:
 
 def example_transition(cfg: Config, color: jax.Array, height: jax.Array):
     """One stage-1 replay item (no batch dim) for ``color`` (H, W, 3) and ``height`` (H, W): a
-    ``GraspTransition``, or with ``stage1.bootstrap = "actor"`` a ``ValuedGraspTransition``."""
+    ``GraspTransition``, or with ``stage1.bootstrap = "actor"`` a ``ValuedGraspTransition``, with
+    ``"actor_argmax"`` an ``ArgmaxGraspTransition``."""
     action = jnp.zeros((3,), jnp.int32)
     if cfg.stage1.bootstrap == "actor":
         return jax.tree.map(lambda x: x[0], replay.make_valued_transition(
             color[None], height[None], action[None], jnp.zeros((1,)), jnp.zeros((1,), bool)))
+    if cfg.stage1.bootstrap == "actor_argmax":
+        return jax.tree.map(lambda x: x[0], replay.make_argmax_transition(
+            color[None], height[None], action[None], jnp.zeros((1,)), color[None], height[None],
+            jnp.zeros((1,), bool)))
     return replay.make_grasp_transition(color, height, action, 0.0, color, height, False)
