@@ -9,9 +9,15 @@
 # 2. The thirtieth look's benchmark comparison, last made on an older preset: f47's VAGS, its
 #    ablation (GDNet's direct grasp) and the ablation with the success net's direct grasp
 #    (`--no-viewpoint --set vags.direct_score=success`), groups 1-10 x 50 rounds, seeds 11-13.
+# Issue 27, one pair: d47 is f47's pipeline (the same seed, programs from f47's cache) with
+#    stage1.bootstrap=actor_argmax (new: the update's target reads the target network at the
+#    action the actor chose greedily on the next state, one rotation's pass instead of sixteen),
+#    then its VAGS and ablation benchmark as f47's.
 # Fixed before the run:
 # * f41 stays issue 23's final run: f47 is a replicate, reported beside it, whatever its figures.
-# * No default changes on this run: it measures, it does not select.
+# * No default changes on this run: it measures, it does not select.  The d47/f47 pair is one
+#   observation of the new bootstrap's speed (stage 1's wall clock less its compiling) and of its
+#   learning (stage 1's success by attempts, the benchmark), reported whatever its figures.
 # On ONE bare H100 (or H200), after the wheels.
 # Poll with: bash /root/src/bench/results/throughput/forward_needed/poll.sh 560 /root/res/machine_log.txt
 S=/root/src
@@ -34,6 +40,15 @@ if [ -f $R/summary.json ]; then
   ev vags_f47 python eval.py --run $R $E --out "$O/seed{seed}/eval_vags.json" &
   ev abl_f47 python eval.py --run $R --no-viewpoint $E --out "$O/seed{seed}/eval_vags-no-viewpoint.json" &
   ev abls_f47 python eval.py --run $R --no-viewpoint --set vags.direct_score=success $E --out "$O/success/seed{seed}/eval_vags-no-viewpoint.json" &
+  wait
+fi
+echo "f47 done $(date +%T)" >> $log
+D=/root/runs/d47; OD=$RES/d47
+run train_d47 timeout 600 python train.py --config gpu --set seed=47 stage1.bootstrap=actor_argmax --out $D --cache-dir $C --json
+keep $D $OD
+if [ -f $D/summary.json ]; then
+  ev vags_d47 python eval.py --run $D $E --out "$OD/seed{seed}/eval_vags.json" &
+  ev abl_d47 python eval.py --run $D --no-viewpoint $E --out "$OD/seed{seed}/eval_vags-no-viewpoint.json" &
   wait
 fi
 echo "done $(date +%T)" >> $log
