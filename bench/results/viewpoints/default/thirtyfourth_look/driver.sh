@@ -32,23 +32,20 @@ keep() { mkdir -p $2; for f in config.json metrics.jsonl timings.jsonl summary.j
 C=/root/cc
 ev() { XLA_PYTHON_CLIENT_PREALLOCATE=false XLA_PYTHON_CLIENT_MEM_FRACTION=0.3 run "$@"; }
 E="--seeds 11,12,13 --cache-dir $C"
-R=/root/runs/f47; O=$RES/f47
+R=/root/runs/f47; O=$RES/f47; D=/root/runs/d47; OD=$RES/d47
+# Order: what the issues need most first, as the session's device time may run out.
 run train_f47 timeout 700 python train.py --config gpu --set seed=47 --out $R --cache-dir $C --json
 keep $R $O
-if [ -f $R/summary.json ]; then
-  run headroom_f47 python bench/gate_headroom.py --run $R --cache-dir $C --out $O/headroom.json --rows $O/headroom_rows.npz
-  ev vags_f47 python eval.py --run $R $E --out "$O/seed{seed}/eval_vags.json" &
-  ev abl_f47 python eval.py --run $R --no-viewpoint $E --out "$O/seed{seed}/eval_vags-no-viewpoint.json" &
-  ev abls_f47 python eval.py --run $R --no-viewpoint --set vags.direct_score=success $E --out "$O/success/seed{seed}/eval_vags-no-viewpoint.json" &
-  wait
-fi
-echo "f47 done $(date +%T)" >> $log
-D=/root/runs/d47; OD=$RES/d47
+[ -f $R/summary.json ] && run headroom_f47 python bench/gate_headroom.py --run $R --cache-dir $C --out $O/headroom.json --rows $O/headroom_rows.npz
 run train_d47 timeout 600 python train.py --config gpu --set seed=47 stage1.bootstrap=actor_argmax --out $D --cache-dir $C --json
 keep $D $OD
-if [ -f $D/summary.json ]; then
-  ev vags_d47 python eval.py --run $D $E --out "$OD/seed{seed}/eval_vags.json" &
-  ev abl_d47 python eval.py --run $D --no-viewpoint $E --out "$OD/seed{seed}/eval_vags-no-viewpoint.json" &
+echo "trained $(date +%T)" >> $log
+for r in f47 d47; do  # two at once, as the thirty-third look ran them
+  [ -f /root/runs/$r/summary.json ] || continue
+  ev vags_$r python eval.py --run /root/runs/$r $E --out "$RES/$r/seed{seed}/eval_vags.json" &
+  ev abl_$r python eval.py --run /root/runs/$r --no-viewpoint $E --out "$RES/$r/seed{seed}/eval_vags-no-viewpoint.json" &
   wait
-fi
+done
+echo "evals done $(date +%T)" >> $log
+[ -f $R/summary.json ] && ev abls_f47 python eval.py --run $R --no-viewpoint --set vags.direct_score=success $E --out "$O/success/seed{seed}/eval_vags-no-viewpoint.json"
 echo "done $(date +%T)" >> $log
