@@ -183,7 +183,9 @@ def _evaluate(args, plan, t_main: float, argv) -> int:
                 f"scored by {g['close_score']!r}); its table "
                 f"predicts a motion number of {rate_gate.motion_number_text(g['motion_number'])} and "
                 f"{100 * g['success']:.1f} % success"
-                + (f" (vags.max_motion_number={g['max_motion_number']:g})" if g["max_motion_number"] else ""))
+                + (f" (vags.max_motion_number={g['max_motion_number']:g})" if g["max_motion_number"] else "")
+                + (f"; in bins {g['close_bins']} a move's value is within two standard errors of 0, so the "
+                   "table's states could not tell whether it pays there" if g["close_bins"] else ""))
     overall = {}
     for seed in plan.seeds:  # one Evaluator: every seed reuses the programs the first one compiled
         if args.seeds is not None:

@@ -38,6 +38,10 @@ def test_fit_bins_by_quantiles_and_values_moves_at_the_best_rate():
     assert t.direct == (0.0, 1.0) and t.moved == (1.0, 0.5) and t.extra_seconds == (2.0, 2.0)
     assert t.rate == pytest.approx(1 / 6)
     assert t.move_value == pytest.approx((2 / 3, -0.5 - 1 / 3))
+    # Standard errors over each bin's states: the low bin's four values are all 2/3 (0); the high
+    # bin's are -1/3, -4/3, -1/3, -4/3 (mean -5/6, squared deviations 1 over 3 degrees of
+    # freedom): sqrt(1 / 3 / 4).
+    assert t.move_value_se == pytest.approx((0.0, np.sqrt(1 / 12)))
     np.testing.assert_allclose(t.array(), [[0.45, np.inf], [2 / 3, -0.5 - 1 / 3]], rtol=1e-6)
     # Objects knocked off, per bin and paired: direct loses one in each bin (1/4 and 1/4), the
     # move three in the low bin and none in the high one (3/4, 0).  Over all 8 states the paired
@@ -165,8 +169,26 @@ def test_the_motion_cap_drops_the_moves_that_add_least_success(tmp_path):
                                [0.3, -0.01, 0.2], rtol=1e-6)
     s = rate_gate.moves_summary(rate_gate.load_table(str(tmp_path), max_motion_number=2.3), 2.3)
     assert s == {"moving_bins": [0, 2], "bins": 3, "motion_number": round(50 / 24, 4),
-                 "success": round(24 / 30, 4), "max_motion_number": 2.3}
+                 "success": round(24 / 30, 4), "max_motion_number": 2.3, "close_bins": []}
     assert rate_gate.motion_number_text(s["motion_number"]) == "2.083"
+
+
+def test_bins_whose_choice_is_within_the_noise_are_named():
+    """``close_bins``: a bin whose move value is within two standard errors of 0.  Two bins of
+    four states, no extra seconds (so the rate does not enter): the low bin gains 1 on every
+    state (value 1, error 0); the high bin's gains are 0, 1, -1, 0 (value 0, squared deviations 2
+    over 3 degrees of freedom: error sqrt(2 / 3 / 4)), so the high bin is named, and flagged in
+    the table train.py prints and in the summary eval.py writes."""
+    p = np.arange(1, 9) / 10
+    t = rate_gate.fit(p, [0, 0, 0, 0, 1, 0, 1, 0], np.full(8, 5.0), [1, 1, 1, 1, 1, 1, 0, 0], np.full(8, 5.0), 2)
+    assert t.move_value == pytest.approx((1.0, 0.0)) and t.move_value_se == pytest.approx((0.0, np.sqrt(1 / 6)))
+    assert rate_gate.close_bins(t) == [1] and rate_gate.moves_summary(t)["close_bins"] == [1]
+    text = rate_gate.describe(t)
+    assert "| +1.000 ± 0.000 | yes |" in text and "| +0.000 ± 0.408 | no * |" in text
+    assert "* bins [1]: the move value is within two standard errors of 0" in text
+    # A gate.json from before the errors were recorded: nothing named, no errors shown.
+    old = rate_gate.from_dict({k: v for k, v in json.loads(json.dumps(t.__dict__)).items() if k != "move_value_se"})
+    assert old.move_value_se == () and rate_gate.close_bins(old) == [] and "±" not in rate_gate.describe(old)
 
 
 def test_a_table_where_nothing_succeeds_predicts_no_motion_number():
@@ -292,6 +314,11 @@ def test_the_split_cap_moves_part_of_the_bin_whole_bins_would_drop(tmp_path):
     assert sp.direct == pytest.approx((0.5, 4 / 6, 1.0, 1.0)) and sp.moved == pytest.approx((1, 1, 1, 1))
     assert sp.extra_seconds == pytest.approx((2, 2, 2, 2)) and sp.rate == t.rate
     assert sp.move_value[1] == pytest.approx((1 - 4 / 6) - 2 * t.rate) and sp.move_value[2] < 0
+    # Standard errors (every move adds 2 s, so they are the gains' own): bin 0's gains, five 1s
+    # of ten, sqrt(2.5 / 9 / 10) = 1/6; bin 1's, two of ten, sqrt(1.6 / 9 / 10) = 2/15; split,
+    # two of its lower six, sqrt((4 / 3) / 5 / 6); no failures elsewhere.
+    assert t.move_value_se == pytest.approx((1 / 6, 2 / 15, 0.0))
+    assert sp.move_value_se == pytest.approx((1 / 6, np.sqrt(4 / 90), 0.0, 0.0))
     assert rate_gate.moves_summary(sp)["moving_bins"] == [0, 1]
     assert rate_gate.motion_number(sp, np.asarray(sp.move_value) > 0) == pytest.approx(46 / 30)
     # The decision moves exactly the 16 lowest states.

@@ -585,6 +585,7 @@ def test_the_pipeline_measures_the_rate_gate_table_that_eval_plays(runs, tmp_pat
     refit = rate_gate.fit(rows["p_direct"], rows["direct_success"], rows["direct_seconds"], rows["moved_success"],
                           rows["moved_seconds"], 2, lost_direct=rows["direct_lost"], lost_moved=rows["moved_lost"])
     assert refit.move_value == pytest.approx(tuple(t["move_value"])) and refit.lost_moved == pytest.approx(tuple(t["lost_moved"]))
+    assert refit.move_value_se == pytest.approx(tuple(t["move_value_se"]))  # gate.json records each bin's error
     out = str(tmp_path / "rate.json")
     # In a new process, as the sweep-and-record test's: its reset of 2 worlds is then the program
     # that test's first eval.py compiled and the cache holds (in this process, after the pipeline,
@@ -602,6 +603,7 @@ def test_the_pipeline_measures_the_rate_gate_table_that_eval_plays(runs, tmp_pat
     assert report["rate_gate"]["bins"] == 2 and report["rate_gate"]["max_motion_number"] == 0.0
     assert report["rate_gate"]["estimate"] == "grasp"  # the success estimate its table bins
     assert report["rate_gate"]["close_score"] == "q"
+    assert report["rate_gate"]["close_bins"] == rate_gate.close_bins(refit)  # the bins decided within noise
     # vags.max_motion_number reaches the decision's table through the run's networks: a cap of 1
     # (every grasp at its first motion) leaves no bin moving.
     cfg = checkpoint.load_config(full)

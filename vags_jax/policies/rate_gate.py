@@ -48,7 +48,10 @@ class GateTable:
     moved - direct - rate * extra_seconds; ``rate``: picks per second of the best gate;
     ``lost_direct`` / ``lost_moved``: objects per attempt that left the table without a grasp
     on each branch (empty in tables measured before they were recorded); ``count_lost``: the
-    rate and move values count each as a pick lost."""
+    rate and move values count each as a pick lost; ``move_value_se``: each bin's standard error
+    of ``move_value`` over its states, the rate held fixed (0 for a bin of one state; empty in
+    tables measured before it was recorded), so that a bin whose choice is within the noise of
+    its states can be told (``close_bins``)."""
 
     edges: tuple
     states: tuple
@@ -60,6 +63,7 @@ class GateTable:
     lost_direct: tuple = ()
     lost_moved: tuple = ()
     count_lost: bool = False
+    move_value_se: tuple = ()
 
     def array(self) -> np.ndarray:
         """(2, K) float32: row 0 the bins' upper edges (the last +inf), row 1 ``move_value``."""
@@ -106,8 +110,25 @@ def fit(p, s_d, t_d, s_m, t_m, n_bins: int, lost_direct=None, lost_moved=None, c
     f = lambda x: tuple(float(v) for v in x)  # noqa: E731
     lost = {} if lost_direct is None else {"lost_direct": f(per(lost_direct)), "lost_moved": f(per(lost_moved)),
                                            "count_lost": bool(count_lost)}
+    value = (gm - gd) - rate * (tm - td)
+    gain = np.asarray(s_m, np.float64) - np.asarray(s_d, np.float64)  # each state's move value, as the bin's
+    if count_lost:
+        gain = gain - (np.asarray(lost_moved, np.float64) - np.asarray(lost_direct, np.float64))
+    per_state = gain - rate * (np.asarray(t_m, np.float64) - np.asarray(t_d, np.float64))
+    squares = np.bincount(k, weights=(per_state - value[k]) ** 2, minlength=n.size)
+    se = np.where(n > 1, np.sqrt(squares / np.maximum(n - 1, 1) / n), 0.0)
     return GateTable(edges=f(edges), states=tuple(int(v) for v in n), direct=f(sd), moved=f(sm),
-                     extra_seconds=f(tm - td), rate=float(rate), move_value=f((gm - gd) - rate * (tm - td)), **lost)
+                     extra_seconds=f(tm - td), rate=float(rate), move_value=f(value), move_value_se=f(se), **lost)
+
+
+def close_bins(table: GateTable, z: float = 2.0) -> list:
+    """Bins whose move value is within ``z`` standard errors of 0: their states cannot tell
+    whether a move pays there, so another measurement could choose them the other way.  Empty
+    for tables without ``move_value_se``."""
+    if not table.move_value_se:
+        return []
+    v, se = np.abs(np.asarray(table.move_value, np.float64)), np.asarray(table.move_value_se, np.float64)
+    return [int(k) for k in np.flatnonzero(v < z * se)]
 
 
 def motion_number(table: GateTable, moves) -> float:
@@ -153,6 +174,12 @@ def _bin_means(states: dict, mask: np.ndarray, rate: float, count_lost: bool) ->
         out["lost_direct"], out["lost_moved"] = mean("direct_lost"), mean("moved_lost")
     gd, gm = (sd - out["lost_direct"], sm - out["lost_moved"]) if count_lost else (sd, sm)
     out["move_value"] = (gm - gd) - rate * extra
+    col = lambda k: np.asarray(states[k], np.float64)[mask]  # noqa: E731
+    per_state = col("moved_success") - col("direct_success") - rate * (col("moved_seconds") - col("direct_seconds"))
+    if count_lost:
+        per_state = per_state - (col("moved_lost") - col("direct_lost"))
+    n = per_state.size
+    out["move_value_se"] = float(np.std(per_state, ddof=1) / np.sqrt(n)) if n > 1 else 0.0
     return out
 
 
@@ -221,7 +248,8 @@ def split_capped(table: GateTable, states: dict, max_motion_number: float) -> Ga
              _bin_means(states, in_k & (p >= cut), table.rate, table.count_lost)]
     parts[1]["move_value"] = -abs(parts[1]["move_value"])
     names = ["states", "direct", "moved", "extra_seconds", "move_value"] + (["lost_direct", "lost_moved"]
-                                                                           if table.lost_direct else [])
+                                                                           if table.lost_direct else []) + (
+        ["move_value_se"] if table.move_value_se else [])
     fields = {}
     for name in names:
         old = list(getattr(table_now, name))
@@ -241,14 +269,15 @@ def read_states(run_dir: str) -> Optional[dict]:
 def moves_summary(table: GateTable, max_motion_number: float = 0.0) -> dict:
     """What the decision plays from ``table`` (already ``capped``): the bins it moves in
     (indices from the lowest p_direct), of how many, the motion number and success the table
-    predicts for that choice, and the cap."""
+    predicts for that choice, the cap, and the bins whose choice is within two standard errors
+    (``close_bins``)."""
     moves = np.asarray(table.move_value) > 0
     n = np.asarray(table.states, np.float64)
     success = float(np.sum(n * np.where(moves, table.moved, table.direct)) / np.sum(n))
     mn = motion_number(table, moves)  # None where no state succeeded: JSON has no inf
     return {"moving_bins": [int(k) for k in np.flatnonzero(moves)], "bins": int(moves.size),
             "motion_number": round(mn, 4) if np.isfinite(mn) else None, "success": round(success, 4),
-            "max_motion_number": float(max_motion_number)}
+            "max_motion_number": float(max_motion_number), "close_bins": close_bins(table)}
 
 
 def moves_at(table: GateTable, p) -> np.ndarray:
@@ -374,11 +403,17 @@ def describe(table: GateTable) -> str:
              "|---|---:|---:|---:|---:|---:|---|" + ("---:|---:|" if lost else "")]
     lo = ["-inf"] + [f"{e:.3f}" for e in table.edges]
     hi = [f"{e:.3f}" for e in table.edges] + ["inf"]
+    close = close_bins(table)
     for i in range(len(table.states)):
+        se = f" ± {table.move_value_se[i]:.3f}" if table.move_value_se else ""
         lines.append(f"| [{lo[i]}, {hi[i]}) | {table.states[i]} | {100 * table.direct[i]:.1f} | "
-                     f"{100 * table.moved[i]:.1f} | {table.extra_seconds[i]:+.2f} | {table.move_value[i]:+.3f} | "
-                     f"{'yes' if table.move_value[i] > 0 else 'no'} |"
+                     f"{100 * table.moved[i]:.1f} | {table.extra_seconds[i]:+.2f} | {table.move_value[i]:+.3f}{se} | "
+                     f"{'yes' if table.move_value[i] > 0 else 'no'}{' *' if i in close else ''} |"
                      + (f" {100 * table.lost_direct[i]:.1f} | {100 * table.lost_moved[i]:.1f} |" if lost else ""))
+    if close:
+        lines += ["", f"* bins {close}: the move value is within two standard errors of 0 (± one standard error over "
+                      "the bin's states shown), so these states cannot tell whether a move pays there; another "
+                      "measurement could choose them the other way"]
     return "\n".join(lines)
 
 

@@ -3,7 +3,8 @@
 headroom.json); stage 1 of f47 and d47 (stage1.bootstrap=actor_argmax) by quarters, and the
 side-by-side stage-1 rate (bench/results/throughput/actor_argmax_h100); both runs' benchmark
 against issue 23's goals (bench/viewpoint_goals.py); f47's VAGS against the ablation with the
-success net's direct grasp.  Run from anywhere:
+success net's direct grasp; the standard errors of the gate tables' move values for today's preset's
+trainings (f41, f44, f47, d47), fit again from their saved states.  Run from anywhere:
 python bench/results/viewpoints/default/thirtyfourth_look/tables.py"""
 import json
 import os
@@ -84,6 +85,27 @@ def success_direct_table():
               f"{rs['motion_number']:.3f} | {v['scenes'] == s['scenes']} |")
 
 
+def bin_noise_table():
+    """Each table fit again from its saved states over its own bins (``rate_gate.fit``, which now
+    records each bin's standard error): bins 0-2's move values, and the bins within two
+    standard errors of 0 (``rate_gate.close_bins``)."""
+    sys.path.insert(0, ROOT)
+    from vags_jax.policies import rate_gate
+    print("\n| run | moving bins | bin 0 move value | bin 1 | bin 2 | bins within two standard errors of 0 |")
+    print("|---|---|---:|---:|---:|---|")
+    for run, rel in (("f41", ("..", "thirtysecond_look", "f41")), ("f44", ("..", "thirtythird_look", "f44")),
+                     ("f47", ("f47",)), ("d47", ("d47",))):
+        d = os.path.join(HERE, *rel)
+        saved, st = rate_gate.from_dict(rate_gate.read(d)), rate_gate.read_states(d)
+        t = rate_gate.fit(st["p_direct"], st["direct_success"], st["direct_seconds"], st["moved_success"],
+                          st["moved_seconds"], len(saved.states), lost_direct=st.get("direct_lost"),
+                          lost_moved=st.get("moved_lost"), count_lost=saved.count_lost)
+        assert t.move_value == saved.move_value, run  # the same fit as the run's own
+        v = [f"{t.move_value[k]:+.3f} ± {t.move_value_se[k]:.3f}" for k in range(3)]
+        print(f"| {run} | {rate_gate.moves_summary(t)['moving_bins']} | {v[0]} | {v[1]} | {v[2]} | "
+              f"{rate_gate.close_bins(t)} |")
+
+
 def main():
     timing_table()
     headroom_table()
@@ -95,6 +117,7 @@ def main():
         subprocess.run([sys.executable, os.path.join(ROOT, "bench", "viewpoint_goals.py"), os.path.join(HERE, run)],
                        check=False)
     success_direct_table()
+    bin_noise_table()
     return 0
 
 
