@@ -241,11 +241,9 @@ def test_executed_rotation_only_matches_full_evaluation(symmetric):
     assert not np.allclose(full[0].params["w"], variables["params"]["w"])  # the update did move
 
 
-def test_a_stored_bootstrap_value_gives_the_target_networks_update():
-    """``stage1.bootstrap = "actor"``: a batch that carries max Q of its next states as values
-    updates exactly as the target network's pass over those states would (rotation subset and
-    symmetric labels, which then take R from ``n_rotations``)."""
-    rng = np.random.default_rng(1)
+def _six_random_grasps(rng):
+    """Six random grasp transitions (two terminal), ``_rotation_net``'s random variables, and a
+    train state of them at gamma 0.5 with symmetric labels -> (batch, DQN config, train state)."""
     b = 6
     grasp = replay.make_grasp_transition(
         rng.integers(0, 256, (b, H, W, 3)), rng.uniform(0, 0.1, (b, H, W)),
@@ -255,7 +253,16 @@ def test_a_stored_bootstrap_value_gives_the_target_networks_update():
     variables = {"params": {"w": jnp.asarray(rng.normal(size=R), jnp.float32),
                             "c": jnp.asarray(rng.normal(size=R), jnp.float32)}, "batch_stats": {}}
     cfg = DQN(optimizer="sgd", learning_rate=0.1, gamma=0.5, symmetric_grasp_label=True)
-    ts = dqn.create_train_state(variables, cfg)
+    return grasp, cfg, dqn.create_train_state(variables, cfg)
+
+
+def test_a_stored_bootstrap_value_gives_the_target_networks_update():
+    """``stage1.bootstrap = "actor"``: a batch that carries max Q of its next states as values
+    updates exactly as the target network's pass over those states would (rotation subset and
+    symmetric labels, which then take R from ``n_rotations``)."""
+    rng = np.random.default_rng(1)
+    b = 6
+    grasp, cfg, ts = _six_random_grasps(rng)
     ts = ts.replace(target_params=jax.tree.map(lambda x: 0.7 * x, ts.target_params))  # target != online
     v = _rotation_net({"params": ts.target_params}, grasp.next_color, grasp.next_height.astype(jnp.float32), False)
     valued = replay.make_valued_transition(grasp.color, grasp.height, grasp.action, grasp.reward, grasp.done)
@@ -283,15 +290,7 @@ def test_the_actors_argmax_gives_double_qs_target():
     rotation, online network's argmax) would, from a target pass over one rotation per state."""
     rng = np.random.default_rng(2)
     b = 6
-    grasp = replay.make_grasp_transition(
-        rng.integers(0, 256, (b, H, W, 3)), rng.uniform(0, 0.1, (b, H, W)),
-        np.stack([rng.integers(0, R, b), rng.integers(0, H, b), rng.integers(0, W, b)], 1),
-        rng.integers(0, 2, b).astype(np.float32), rng.integers(0, 256, (b, H, W, 3)), rng.uniform(0, 0.1, (b, H, W)),
-        np.array([False, True, False, False, True, False]))
-    variables = {"params": {"w": jnp.asarray(rng.normal(size=R), jnp.float32),
-                            "c": jnp.asarray(rng.normal(size=R), jnp.float32)}, "batch_stats": {}}
-    cfg = DQN(optimizer="sgd", learning_rate=0.1, gamma=0.5, symmetric_grasp_label=True)
-    ts = dqn.create_train_state(variables, cfg)
+    grasp, cfg, ts = _six_random_grasps(rng)
     # A target network whose argmax differs from the online one's: the rotations' weights reversed.
     ts = ts.replace(target_params=jax.tree.map(lambda x: x[::-1], ts.target_params))
     next_h = grasp.next_height.astype(jnp.float32)

@@ -18,19 +18,26 @@ def stage(fast_cfg):
     return Stage1(cfg)
 
 
-def test_transitions_take_the_actors_value_of_their_next_state(stage, tmp_path):
+def _four_states(stage):
+    """The stage's first state and the next three, one iteration at a time (no physics errors);
+    the replay's layout is the one ``checkpoint_layout`` promises."""
     state = stage.init(jax.random.PRNGKey(5))
     layout = checkpoint_layout(stage.cfg)["replay"]
     assert jax.tree.map(lambda a: (a.shape, a.dtype), layout) == jax.tree.map(lambda a: (a.shape, a.dtype),
                                                                              state.replay)
-    assert not hasattr(state.replay.data, "next_color")  # no next states in replay
-    max_q = jax.jit(lambda ln, s: stage._apply({"params": ln.params, "batch_stats": ln.batch_stats},
-                                               s.color, s.height, False).reshape(s.n_worlds, -1).max(-1))
     states = [state]
     for _ in range(3):
         state, m = stage.run(state, 1)
         states.append(state)
         assert int(m["physics_errors"][0]) == 0
+    return states
+
+
+def test_transitions_take_the_actors_value_of_their_next_state(stage, tmp_path):
+    max_q = jax.jit(lambda ln, s: stage._apply({"params": ln.params, "batch_stats": ln.batch_stats},
+                                               s.color, s.height, False).reshape(s.n_worlds, -1).max(-1))
+    states = _four_states(stage)
+    assert not hasattr(states[0].replay.data, "next_color")  # no next states in replay
     r = [s.replay for s in states]
     # After iteration 0 its attempts wait (priority 0): nothing to learn from yet.
     n0 = int(r[1].size)
@@ -60,17 +67,9 @@ def test_transitions_take_the_actors_greedy_action_on_their_next_state(fast_cfg,
     then reads the target network at that action (``test_dqn.py``)."""
     stage = Stage1(C.replace(fast_cfg, **{"stage1.bootstrap": "actor_argmax", "stage1.learning_starts": 2,
                                           "stage1.updates_per_iteration": 2}))
-    state = stage.init(jax.random.PRNGKey(5))
-    layout = checkpoint_layout(stage.cfg)["replay"]
-    assert jax.tree.map(lambda a: (a.shape, a.dtype), layout) == jax.tree.map(lambda a: (a.shape, a.dtype),
-                                                                             state.replay)
     greedy = jax.jit(lambda ln, s: exploration.greedy_grasp(stage._apply(
         {"params": ln.params, "batch_stats": ln.batch_stats}, s.color, s.height, False)))
-    states = [state]
-    for _ in range(3):
-        state, m = stage.run(state, 1)
-        states.append(state)
-        assert int(m["physics_errors"][0]) == 0
+    states = _four_states(stage)
     r = [s.replay for s in states]
     n0 = int(r[1].size)
     assert n0 == stage.cfg.stage1.n_worlds and int(jax.device_get(r[1].priorities[:n0]).max()) == 0
