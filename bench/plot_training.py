@@ -3,7 +3,7 @@
 
     python bench/plot_training.py runs/daes runs/no_daes --labels DAES "no DAES" --out bench/fig9.png
 
-Reads each run's metrics.jsonl (one row per iteration: success_rate over the batch of worlds,
+Reads each run's metrics.jsonl (or metrics.jsonl.gz; one row per stage-1 iteration: success_rate over the batch of worlds,
 grasp_attempts, wall_s) and draws the success rate averaged over a sliding window of attempts.
 Needs matplotlib (not a dependency of the package: pip install matplotlib).  Also prints, per
 run, the success rate of the last window and the attempts / wall time at which the windowed
@@ -12,6 +12,7 @@ success first reached each of the thresholds given by --thresholds.
 from __future__ import annotations
 
 import argparse
+import gzip
 import json
 import os
 import sys
@@ -20,8 +21,12 @@ import numpy as np
 
 
 def load(run_dir):
-    with open(os.path.join(run_dir, "metrics.jsonl")) as f:
-        rows = [json.loads(l) for l in f]
+    """A run's stage-1 rows -> (attempts, success, wall seconds), each (iterations,); reads
+    metrics.jsonl, or metrics.jsonl.gz where it was committed gzipped."""
+    path = os.path.join(run_dir, "metrics.jsonl")
+    opener = open if os.path.exists(path) or not os.path.exists(path + ".gz") else gzip.open
+    with opener(path if opener is open else path + ".gz", "rt") as f:
+        rows = [r for r in map(json.loads, f) if r.get("stage", "stage1") == "stage1"]
     rows.sort(key=lambda r: r["iteration"])
     att = np.array([r["grasp_attempts"] for r in rows], float)
     succ = np.array([r["success_rate"] for r in rows], float)
