@@ -111,14 +111,22 @@ def fit(p, s_d, t_d, s_m, t_m, n_bins: int, lost_direct=None, lost_moved=None, c
     lost = {} if lost_direct is None else {"lost_direct": f(per(lost_direct)), "lost_moved": f(per(lost_moved)),
                                            "count_lost": bool(count_lost)}
     value = (gm - gd) - rate * (tm - td)
-    gain = np.asarray(s_m, np.float64) - np.asarray(s_d, np.float64)  # each state's move value, as the bin's
-    if count_lost:
-        gain = gain - (np.asarray(lost_moved, np.float64) - np.asarray(lost_direct, np.float64))
-    per_state = gain - rate * (np.asarray(t_m, np.float64) - np.asarray(t_d, np.float64))
+    per_state = state_move_values(s_d, t_d, s_m, t_m, rate, lost_direct if count_lost else None, lost_moved)
     squares = np.bincount(k, weights=(per_state - value[k]) ** 2, minlength=n.size)
     se = np.where(n > 1, np.sqrt(squares / np.maximum(n - 1, 1) / n), 0.0)
     return GateTable(edges=f(edges), states=tuple(int(v) for v in n), direct=f(sd), moved=f(sm),
                      extra_seconds=f(tm - td), rate=float(rate), move_value=f(value), move_value_se=f(se), **lost)
+
+
+def state_move_values(s_d, t_d, s_m, t_m, rate: float, lost_direct=None, lost_moved=None) -> np.ndarray:
+    """Each state's move value (N,) as a bin's is of its means: moved - direct success, less the
+    objects each branch knocked off where ``lost_direct`` is given (``count_lost``), less ``rate``
+    times the seconds a move adds."""
+    f = lambda x: np.asarray(x, np.float64)  # noqa: E731
+    gain = f(s_m) - f(s_d)
+    if lost_direct is not None:
+        gain = gain - (f(lost_moved) - f(lost_direct))
+    return gain - rate * (f(t_m) - f(t_d))
 
 
 def close_bins(table: GateTable, z: float = 2.0) -> list:
@@ -175,9 +183,9 @@ def _bin_means(states: dict, mask: np.ndarray, rate: float, count_lost: bool) ->
     gd, gm = (sd - out["lost_direct"], sm - out["lost_moved"]) if count_lost else (sd, sm)
     out["move_value"] = (gm - gd) - rate * extra
     col = lambda k: np.asarray(states[k], np.float64)[mask]  # noqa: E731
-    per_state = col("moved_success") - col("direct_success") - rate * (col("moved_seconds") - col("direct_seconds"))
-    if count_lost:
-        per_state = per_state - (col("moved_lost") - col("direct_lost"))
+    per_state = state_move_values(col("direct_success"), col("direct_seconds"), col("moved_success"),
+                                  col("moved_seconds"), rate, *((col("direct_lost"), col("moved_lost"))
+                                                                if count_lost else ()))
     n = per_state.size
     out["move_value_se"] = float(np.std(per_state, ddof=1) / np.sqrt(n)) if n > 1 else 0.0
     return out
