@@ -138,7 +138,7 @@ def update_mfu(cfg, peak: float, n_updates: int, reps: int = 3, parts: bool = Tr
     f_target, f_online = forward_flops(target, variables), forward_flops(online, variables)
     flops = passes * f_target + 3 * f_online
     result = {"trunk": cfg.net.trunk, "dtype": cfg.net.dtype, "batch_size": cfg.dqn.batch_size,
-              "heightmap_px": H, "rotations": cfg.net.n_rotations, "update_flops": flops, "target_pass_flops": f_target,
+              "heightmap_px": H, "rotations": cfg.net.n_rotations, "half_turn": cfg.net.half_turn, "update_flops": flops, "target_pass_flops": f_target,
               "online_forward_flops": f_online, "target_passes": passes, "xla_flops": None, "update_s": dt,
               "updates_per_s": 1 / dt, "achieved_flops_per_s": flops / dt, "mfu": flops / dt / peak, "parts": {}}
     if not parts:
@@ -150,7 +150,7 @@ def update_mfu(cfg, peak: float, n_updates: int, reps: int = 3, parts: bool = Tr
     b, R = next_h.shape[0], cfg.net.n_rotations
     geo = trunk_geometry(cfg.net.trunk, cfg.net.small_width)
     p = padded_size(H, geo.stride)
-    theta = rotation_angles(jnp.broadcast_to(jnp.arange(R), (b, R)), R)
+    theta = rotation_angles(jnp.broadcast_to(jnp.arange(R), (b, R)), R, cfg.net.half_turn)
     rotate_in = jax.jit(lambda c, h: rotated_inputs(pad_inputs(c, h, p), theta))
     x = rotate_in(next_c, next_h)
     trunks = jax.jit(lambda v, x: net.apply(v, x, False, method=net.coarse_q))

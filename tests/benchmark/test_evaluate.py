@@ -180,6 +180,13 @@ def test_heuristic_picks_narrow_axis_on_the_highest_object():
     assert action[1, 0] == 0 and 14 <= action[1, 2] <= 17
     assert 20 <= action[2, 1] <= 23 and 20 <= action[2, 2] <= 22
     assert (width <= cfg.grasp.finger_stroke).all()
+    # Over half a turn, 8 rotations hold the same 8 axes (r * pi / 8): the same grasps, indices 0..7.
+    half = C.replace(cfg, **{"grasp.n_rotations": 8, "net.n_rotations": 8, "grasp.half_turn": True,
+                             "net.half_turn": True})
+    assert half.grasp.n_axes == 8 and half.grasp.rotation_step == pytest.approx(cfg.grasp.rotation_step)
+    got, got_width = jax.jit(P.min_width_grasp, static_argnums=1)(jnp.asarray(_bars(cfg)), half)
+    np.testing.assert_array_equal(np.asarray(got), action)
+    np.testing.assert_allclose(np.asarray(got_width), width)
 
 
 def test_random_and_gdnet_policies_on_maps():

@@ -247,6 +247,12 @@ def test_attempt_picture_panels_and_markers():
     # ... and is with it
     img3 = attempt_picture(_record(direct=False, grasp_cell=np.array([12.0, 12.0])))
     assert (_panel(img3, 0, size) == np.array(record.GRASP_RGB, np.uint8)).all(-1).any()
+    # Rotation 2 of 4 is 90 deg over half a turn (a vertical line) and 180 deg over a whole one.
+    for half_turn, vertical in ((True, True), (False, False)):
+        img4 = attempt_picture(_record(direct=True, grasp=np.array([2, 5, 7], np.int32), n_rotations=4,
+                                       half_turn=half_turn))
+        line = np.argwhere((_panel(img4, 0, size) == np.array(record.GRASP_RGB, np.uint8)).all(-1))
+        assert len(np.unique(line[:, 1 if vertical else 0])) == 1
 
 
 def test_write_round_files_and_json(tmp_path):

@@ -15,6 +15,20 @@ def test_descent_clearance_rejects_bad_values(bad):
         C.replace(C.Config(), **{"grasp.descent_clearance": bad})
 
 
+def test_half_turn_rotations_are_set_on_both_sections_and_refuse_the_mirror_label():
+    half = C.replace(C.Config(), **C.parse_overrides(["grasp.half_turn=true", "net.half_turn=true",
+                                                      "grasp.n_rotations=8", "net.n_rotations=8"]))
+    assert half.grasp.rotation_step == pytest.approx(3.141592653589793 / 8) and half.grasp.n_axes == 8
+    assert C.Config().grasp.rotation_step == pytest.approx(3.141592653589793 / 8) and C.Config().grasp.n_axes == 8
+    with pytest.raises(ValueError, match=r"net\.half_turn \(False\) must equal grasp\.half_turn \(True\)"):
+        C.replace(C.Config(), **{"grasp.half_turn": True})
+    with pytest.raises(ValueError, match=r"set dqn\.symmetric_grasp_label=false"):
+        C.replace(half, **{"dqn.symmetric_grasp_label": True})
+    with pytest.raises(ValueError, match=r"net\.half_turn=false"):
+        from vags_jax.nets.vpg import make_vpg_net
+        make_vpg_net(half.net)
+
+
 def test_sleep_needs_impl_warp():
     assert C.replace(C.Config(), **{"sim.impl": "warp", "sim.sleep": True}).sim.sleep
     with pytest.raises(ValueError, match=r"sim\.sleep = True needs impl 'warp'.*sim\.sleep=false"):

@@ -225,6 +225,22 @@ def test_gdnet_rotation_subset_matches_full(small_gdnet):
     np.testing.assert_allclose(np.asarray(sub), expect, rtol=1e-4, atol=1e-4)
 
 
+def test_half_turn_gdnet_is_the_full_turns_distinct_half(small_gdnet):
+    # 8 rotations over half a turn are rotations 0..7 of 16 over a whole one (the same angles
+    # r * pi / 8), computed with the same variables at half the passes; without half_turn, 8
+    # rotations would be r * pi / 4 and differ from index 1 on.
+    model, variables, colour, height, apply, q = small_gdnet
+    half = make_qnet(Net(trunk="small", small_width=8, head_channels=16, n_rotations=8, half_turn=True), "gdnet")
+    got = np.asarray(jax.jit(half.apply, static_argnames=("train",))(variables, colour, height))
+    assert got.shape == (B, 8, HM, HM)
+    np.testing.assert_allclose(got, np.asarray(q)[:, :8], rtol=1e-5, atol=1e-5)
+    np.testing.assert_allclose(np.asarray(rotation_angles(jnp.arange(8), 8, half_turn=True)),
+                               np.arange(8) * math.pi / 8, rtol=1e-6)
+    whole = make_qnet(Net(trunk="small", small_width=8, head_channels=16, n_rotations=8), "gdnet")
+    q8 = np.asarray(whole.apply(variables, colour, height, rotations=jnp.array([1])))
+    assert np.abs(q8[:, 0] - np.asarray(q)[:, 1]).max() > 1e-3
+
+
 def test_gdnet_quarter_turn_equivariance(small_gdnet):
     # Turning the scene by +90 deg (a lossless pixel permutation) must give, at rotation
     # index r + 4, exactly the index-r Q map turned by +90 deg: the trunks see identical inputs,

@@ -22,6 +22,10 @@ def test_half_turn_mean_by_hand():
     np.testing.assert_allclose(got, [[2, 3], [4, 5], [2, 3], [4, 5]])
     with pytest.raises(ValueError, match="even number of grasp rotations"):
         half_turn_mean(q[:, :3])
+    # Over half a turn (grasp.half_turn) no rotation repeats another's grasp: the mean is q,
+    # odd counts included.
+    np.testing.assert_array_equal(np.asarray(half_turn_mean(q, half_turn=True)), np.asarray(q))
+    np.testing.assert_array_equal(np.asarray(half_turn_mean(q[:, :3], half_turn=True)), np.asarray(q[:, :3]))
 
 
 def _flat_table_frame():
@@ -58,6 +62,10 @@ def test_the_close_grasp_maximizes_the_configured_score_among_the_seen_cells():
     action, _, *_ = fused_grasp(color, height, depth, rgb, pose, CAM, WS, gdnet_q, anywhere=True,
                                 success_q=success_q)
     assert np.asarray(action)[0].tolist() == [1, 0, 0]  # "map": the unseen cell too
+    # Over half a turn, rotations 1 and 3 are different grasps: the raw 0.9 at (12, 12) wins.
+    action, best, *_ = fused_grasp(color, height, depth, rgb, pose, CAM, WS, gdnet_q, success_q=success_q,
+                                   half_turn=True)
+    assert np.asarray(action)[0].tolist() == [1, 12, 12] and float(best[0]) == pytest.approx(0.9)
 
 
 def test_close_score_settings_that_cannot_work_say_what_to_fix():

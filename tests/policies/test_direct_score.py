@@ -42,6 +42,11 @@ def test_the_direct_grasp_is_the_configured_planners_argmax():
     table = jnp.array([[0.5, jnp.inf], [1.0, -1.0]], jnp.float32)
     assert bool(decide(q, view, 0.0, s, "rate", gate_table=table, direct_score="success").direct[0])  # p 0.6
     assert not bool(decide(q, view, 0.0, s, "rate", gate_table=table).direct[0])  # p 0.0 at GDNet's grasp
+    # Over half a turn (grasp.half_turn) rotation 3 is not rotation 1 turned: the raw peak wins,
+    # and the rate gate's p_direct there is the success net's own value (0.9: a move pays not).
+    assert np.asarray(direct_grasp(q, s, "success", half_turn=True)[0])[0].tolist() == [1, 2, 2]
+    assert bool(decide(q, view, 0.0, s, "rate", gate_table=table, gate_estimate="symmetric", direct_score="success",
+                       half_turn=True).direct[0])
     with pytest.raises(ValueError, match="direct_score=success plans the direct grasp with the success net"):
         direct_grasp(q, None, "success")
     with pytest.raises(ValueError, match="use vags.direct_score=q"):

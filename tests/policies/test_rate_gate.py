@@ -232,6 +232,12 @@ def test_success_estimates_of_a_grasp_worked_out_by_hand():
     assert got["q_direct"] == pytest.approx(1.6)  # GDNet's map (here 2 x q) at the grasp
     with pytest.raises(ValueError, match="even number of grasp rotations"):
         success_estimate(q[:, :3], grasp, "symmetric")
+    # Over half a turn (grasp.half_turn) rotation 3 is another grasp: "symmetric" is the grasp's
+    # own value and "window" its own rotation's 3 x 3 mean.
+    assert float(success_estimate(q, grasp, "symmetric", half_turn=True)[0]) == pytest.approx(0.8)
+    assert float(success_estimate(q, grasp, "window", half_turn=True)[0]) == pytest.approx(1.7 / 6, rel=1e-6)
+    got = {k: float(v[0]) for k, v in success_estimates(q, 2.0 * q, grasp, half_turn=True).items()}
+    assert got["p_symmetric"] == pytest.approx(0.8)
 
 
 def test_the_decision_reads_the_configured_estimate():

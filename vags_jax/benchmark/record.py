@@ -6,7 +6,8 @@ draws it as a grid of panels and ``write_round`` writes a round's pictures and a
 Panels (``attempt_picture``), in reading order, two rows of three:
 
 1. the global colour heightmap, the executed grasp drawn as a line along its closing axis
-   (a direct grasp: at the GDNet cell, angle ``rotation * pi / (n_rotations / 2)``; a grasp
+   (a direct grasp: at the GDNet cell, angle ``rotation * pi / (n_rotations / 2)``, or
+   ``rotation * pi / n_rotations`` with ``half_turn``; a grasp
    after a viewpoint move: at ``grasp_cell`` along ``yaw`` if given, else not drawn);
 2. the global height map (false colour, black where empty);
 3. GDNet's Q, max over rotations, with a cross at GDNet's argmax;
@@ -56,6 +57,7 @@ class AttemptRecord:
       ggcnn_pixel: (2,) int [u, v] (u column, v row) of GG-CNN's peak in the S x S image, or
       None; ggcnn_angle_peak: the angle (rad) at the peak, or None.
     n_rotations: GDNet's rotation count (rotation r is angle r * pi / (n_rotations / 2)).
+    half_turn: GDNet's rotations span half a turn (angle r * pi / n_rotations; ``config.Grasp``).
     grasp_cell: (2,) float [row, col] heightmap cell of the executed grasp, or None; used to draw
       a grasp made after a viewpoint move on the colour panel (a direct grasp is drawn at
       ``grasp[1:]``).
@@ -84,13 +86,14 @@ class AttemptRecord:
     ggcnn_angle_peak: Optional[float] = None
     n_rotations: int = 16
     grasp_cell: Optional[np.ndarray] = None
+    half_turn: bool = False
 
     def __post_init__(self):
         set_ = lambda name, value: object.__setattr__(self, name, value)  # noqa: E731
         for name in ("round_index", "attempt_index", "n_objects"):
             set_(name, _int(name, getattr(self, name), low=0))
         set_("n_rotations", _int("n_rotations", self.n_rotations, low=1))
-        for name in ("direct", "success"):
+        for name in ("direct", "success", "half_turn"):
             set_(name, _bool(name, getattr(self, name)))
         for name in ("q_max", "threshold", "yaw"):
             set_(name, _float(name, getattr(self, name)))
@@ -299,7 +302,8 @@ def attempt_picture(rec: AttemptRecord, min_px: int = 128) -> np.ndarray:
         raise ValueError(f"attempt_picture needs an AttemptRecord, got {type(rec).__name__}")
     size = panel_size(rec, min_px)
     rot, row, col = (int(v) for v in rec.grasp)
-    rotation_angle = rot * math.pi / (rec.n_rotations / 2) if rec.n_rotations > 1 else 0.0
+    turn = math.pi if rec.half_turn else 2.0 * math.pi
+    rotation_angle = rot * turn / rec.n_rotations if rec.n_rotations > 1 else 0.0
 
     colour = _Panel(rec.color, size)
     if rec.direct:

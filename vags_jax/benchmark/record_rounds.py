@@ -85,7 +85,7 @@ def record_rounds(cfg: Config, evaluator, params: dict, seed: int, groups: Seque
                 ggcnn_width=info["width"][i] if gg else None,
                 ggcnn_pixel=info["pixel"][i] if gg else None,
                 ggcnn_angle_peak=float(info["angle_peak"][i]) if gg else None,
-                n_rotations=cfg.net.n_rotations,
+                n_rotations=cfg.net.n_rotations, half_turn=cfg.net.half_turn,
                 grasp_cell=np.clip(info["cell"][i], 0, cfg.workspace.heightmap_px - 1).astype(np.float32)))
         done = done | np.asarray(env.round_over(state, extra) | state.sim.error)
         t += 1

@@ -9,9 +9,12 @@ Conventions shared by all modules (read these before writing code against them):
   ``x in [xmin + col * px, xmin + (col + 1) * px)`` and the same for ``y`` with ``row``.
   Heights are metres above the table, 0 where no point falls.
 * Grasp rotations: index ``r in 0..n_rotations-1`` means angle ``theta = r * pi / 8``
-  (for 16 rotations).  The gripper's *closing axis* (the line the fingers move along) points
-  along ``(cos theta, sin theta)`` in the world xy-plane, i.e. along (col, row) in the
-  heightmap.  ``r`` and ``r + 8`` are the same physical grasp.
+  (for 16 rotations; ``Grasp.rotation_step``).  The gripper's *closing axis* (the line the
+  fingers move along) points along ``(cos theta, sin theta)`` in the world xy-plane, i.e. along
+  (col, row) in the heightmap.  ``r`` and ``r + 8`` are the same physical grasp, which GDNet
+  judges on heightmaps turned 180 degrees apart.  With ``Grasp.half_turn`` the rotations span
+  half a turn instead (``theta = r * pi / n_rotations``): every index is a different grasp, and
+  8 half-turn rotations are the 8 distinct grasps of 16 full-turn ones at half the network cost.
 * Cameras use the OpenCV convention: x right, y down, z forward (optical axis).  A pose is a
   ``(4, 4)`` camera-to-world transform.  Depth images hold the z-distance along the optical
   axis in metres (as RGB-D sensors report), 0 where nothing was hit or the pixel is missing.
@@ -330,6 +333,9 @@ class Grasp:
     """Top-down parallel-jaw grasp primitive (floating RG2-like gripper)."""
 
     n_rotations: int = 16
+    # The rotations span half a turn (theta = r * pi / n_rotations) instead of a whole one (r * 2 pi
+    # / n_rotations), so no index repeats another's grasp turned 180 degrees; net.half_turn must match.
+    half_turn: bool = False
     approach_height: float = 0.15  # m above the grasp point
     depth_below_surface: float = 0.03  # m below the surface height at the pixel
     min_height_above_table: float = 0.005  # grasp centre never below this
@@ -389,7 +395,17 @@ class Grasp:
 
     @property
     def rotation_step(self) -> float:
-        return math.pi / (self.n_rotations / 2) if self.n_rotations > 1 else 0.0
+        """Radians between consecutive rotation indices: 2 pi / n_rotations, or pi / n_rotations
+        with ``half_turn`` (0 for one rotation)."""
+        if self.n_rotations == 1:
+            return 0.0
+        return (math.pi if self.half_turn else 2.0 * math.pi) / self.n_rotations
+
+    @property
+    def n_axes(self) -> int:
+        """Distinct closing axes among the rotations: n_rotations / 2 over a full turn (r and
+        r + R/2 close along the same line), n_rotations over half a turn."""
+        return self.n_rotations if self.half_turn else max(1, self.n_rotations // 2)
 
 
 @dataclass(frozen=True)
@@ -522,6 +538,8 @@ class Net:
     small_width: int = 32  # base width of the "small" trunk
     dtype: str = "float32"  # compute dtype: "float32" | "bfloat16"
     n_rotations: int = 16
+    # GDNet's rotations span half a turn (``Grasp.half_turn``, which must match).
+    half_turn: bool = False
     # Worlds per Q-network forward when VAGS decides for many worlds (stages 2-3, eval): GDNet's
     # rotations of 512 worlds at once need tens of GB of activations.  0: all worlds at once.
     forward_batch: int = 128
@@ -1185,6 +1203,12 @@ class Config:
                    f"({self.replay.capacity}): learning would never start")
         _check(self.net.n_rotations == self.grasp.n_rotations,
                "net.n_rotations must equal grasp.n_rotations")
+        _check(self.net.half_turn == self.grasp.half_turn,
+               f"net.half_turn ({self.net.half_turn}) must equal grasp.half_turn ({self.grasp.half_turn}): "
+               f"set both, e.g. --set grasp.half_turn=true net.half_turn=true")
+        _check(not (self.grasp.half_turn and self.dqn.symmetric_grasp_label),
+               "dqn.symmetric_grasp_label also trains rotation (r + R/2) % R, the same grasp turned half a "
+               "turn, which half-turn rotations (grasp.half_turn) do not have: set dqn.symmetric_grasp_label=false")
         for name in ("stage2", "stage3", "nbv", "vpg"):
             _check(getattr(self, name).bootstrap == "target_network",
                    f"{name}.bootstrap = {getattr(self, name).bootstrap!r}: only stage 1 can bootstrap from the "

@@ -10,13 +10,16 @@ Grasp in heightmap coordinates (``grasp(state, pixel, rotation)``):
   * ``pixel`` = (row, col) of the global heightmap -> world x, y of the cell centre;
   * the grasp centre is ``depth_below_surface`` under the surface height at that cell (never
     below ``table_z + min_height_above_table``, enforced by the simulator);
-  * ``rotation`` r -> closing-axis yaw ``r * pi / (n_rotations / 2)`` (config conventions).
+  * ``rotation`` r -> closing-axis yaw ``r * grasp.rotation_step``: ``r * pi / (n_rotations / 2)``,
+    or ``r * pi / n_rotations`` with ``grasp.half_turn`` (config conventions).
 
 One grasp attempt = the physics of the grasp, then a new global observation (render +
 heightmaps) of every world.  A *round* is one scene: it ends when the table is clear or after
 ``2 * objects + max_attempts_extra`` attempts (``round_over``).
 """
 from __future__ import annotations
+
+import math
 
 from typing import Optional
 
@@ -340,7 +343,7 @@ class VagsEnv(Observation):
                              f"{rotation.shape} dtype {rotation.dtype}")
         if rotation.min() < 0 or rotation.max() >= R:
             raise ValueError(f"rotation index must lie in 0..{R - 1} ({R} rotations of "
-                             f"{180 / (R / 2):.1f} deg); got {rotation[(rotation < 0) | (rotation >= R)][:4].tolist()}")
+                             f"{math.degrees(self.cfg.grasp.rotation_step):.1f} deg); got {rotation[(rotation < 0) | (rotation >= R)][:4].tolist()}")
         key = None if key is None else _raw_key(key)
         state, result = self._grasp_jit(state, jnp.asarray(pixel, jnp.int32), jnp.asarray(rotation, jnp.int32), key)
         check_overflow(state.sim)

@@ -7,7 +7,8 @@ metres (as in VPG):
    with ``P = padded_size(max(H, W), stride)``: ``ceil(H * sqrt 2)`` rounded up to a multiple of the
    trunk stride, so no rotation cuts heightmap content (224 -> 320 for both trunks here).
 2. GDNet only: rotate the padded maps (bilinear, ``rotation.rotate``) by ``-theta_r`` with
-   ``theta_r = r * 2 pi / n_rotations`` (``r * pi / 8`` for 16).  By the convention of
+   ``theta_r = r * 2 pi / n_rotations`` (``r * pi / 8`` for 16; ``r * pi / n_rotations`` with
+   ``half_turn``, the rotations over half a turn).  By the convention of
    ``vags_jax.config`` the gripper's closing axis for index ``r`` points along ``(cos theta_r,
    sin theta_r)`` in (col, row); turning the content by ``-theta_r`` puts that axis along the
    network input's horizontal (+col) axis: the network always judges a grasp whose fingers close
@@ -87,9 +88,10 @@ def padded_size(size: int, stride: int, rotations: bool = True) -> int:
     return -(-side // stride) * stride
 
 
-def rotation_angles(indices: jax.Array, n_rotations: int) -> jax.Array:
-    """Closing-axis angle ``theta = r * 2 pi / n_rotations`` (radians) of rotation index ``r``."""
-    return jnp.asarray(indices, jnp.float32) * (2.0 * math.pi / n_rotations)
+def rotation_angles(indices: jax.Array, n_rotations: int, half_turn: bool = False) -> jax.Array:
+    """Closing-axis angle ``theta = r * 2 pi / n_rotations`` (radians) of rotation index ``r``;
+    ``r * pi / n_rotations`` with ``half_turn`` (``config.Grasp.rotation_step``)."""
+    return jnp.asarray(indices, jnp.float32) * ((math.pi if half_turn else 2.0 * math.pi) / n_rotations)
 
 
 def normalise_colour(colour: jax.Array) -> jax.Array:
@@ -228,6 +230,7 @@ class GDNet(_TwoStream):
     """Grasp Q-network over ``n_rotations`` gripper rotations (module docstring for details)."""
 
     n_rotations: int = 16
+    half_turn: bool = False  # the rotations span half a turn (``config.Grasp.half_turn``)
 
     def __call__(self, colour: jax.Array, height: jax.Array, train: bool = False,
                  rotations: Optional[jax.Array] = None) -> jax.Array:
@@ -255,7 +258,7 @@ class GDNet(_TwoStream):
             if idx.ndim != 2 or idx.shape[0] != b:
                 raise ValueError(f"GDNet: rotations must be (K,) or (B={b}, K) ints, got shape {idx.shape}")
         k = idx.shape[1]
-        theta = rotation_angles(idx, self.n_rotations)  # (B, K)
+        theta = rotation_angles(idx, self.n_rotations, self.half_turn)  # (B, K)
         p = padded_size(max(h, w), self.geometry.stride, rotations=True)
         x = rotated_inputs(pad_inputs(colour, height, p), theta)  # (B*K, P, P, 4)
         coarse = self.coarse_q(x, train)  # (B*K, P/s, P/s)
@@ -285,7 +288,7 @@ def make_qnet(net_cfg, kind: str = "gdnet", axis_name: Optional[str] = None) -> 
     common = dict(trunk=net_cfg.trunk, small_width=net_cfg.small_width,
                   head_channels=net_cfg.head_channels, dtype=net_cfg.dtype, axis_name=axis_name)
     if kind == "gdnet":
-        return GDNet(n_rotations=net_cfg.n_rotations, **common)
+        return GDNet(n_rotations=net_cfg.n_rotations, half_turn=net_cfg.half_turn, **common)
     if kind == "vanet":
         return VANet(**common)
     raise ValueError(f"make_qnet: kind must be 'gdnet' or 'vanet', got {kind!r}")

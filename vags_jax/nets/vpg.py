@@ -48,6 +48,9 @@ class VPGNet(nn.Module):
 
 def make_vpg_net(net_cfg) -> VPGNet:
     """VPG's nets from a ``config.Net`` (trunk, width, head, dtype, rotations)."""
+    if net_cfg.half_turn:
+        raise ValueError("VPG pushes in all n_rotations directions of a whole turn, on the grasp net's rotated "
+                         "heightmaps: set net.half_turn=false and grasp.half_turn=false for VPG")
     return VPGNet(n_rotations=net_cfg.n_rotations, trunk=net_cfg.trunk, small_width=net_cfg.small_width,
                   head_channels=net_cfg.head_channels, dtype=net_cfg.dtype)
 

@@ -11,7 +11,7 @@ an action ``(B, 3) int32 [rotation, row, col]`` on the global heightmaps (1 moti
 * ``highest``: the highest point of the height map (box-smoothed over ~3 cm so that the middle
   of a flat top beats its edges and single tall pixels), rotation 0.  The simplest scripted grasp.
 * ``heuristic``: scripted minimum-width grasp.  Take the ``highest`` point; for each of the
-  ``n_rotations / 2`` distinct closing axes, walk the height map outwards from it along the
+  ``grasp.n_axes`` distinct closing axes, walk the height map outwards from it along the
   axis and measure the contiguous run of cells that would stand between the open fingers at
   grasp depth (height > surface - ``depth_below_surface``, and an object cell); choose the axis
   with the narrowest run that fits in ``finger_stroke`` (the narrowest one if none fits), and
@@ -279,7 +279,7 @@ def highest_act(cfg: Config) -> Callable:
 def min_width_grasp(height: jax.Array, cfg: Config):
     """The ``heuristic`` policy's choice on height maps (B, H, W).
 
-    Returns ``action (B, 3) int32 [rotation, row, col]`` (rotation in 0..n_rotations/2-1) and
+    Returns ``action (B, 3) int32 [rotation, row, col]`` (rotation in 0..grasp.n_axes - 1) and
     ``width (B,) float32``: the measured extent (m) between the fingers along the chosen axis.
     """
     ws, g = cfg.workspace, cfg.grasp
@@ -290,7 +290,7 @@ def min_width_grasp(height: jax.Array, cfg: Config):
     surface = height[bi, centre[:, 0], centre[:, 1]]
     level = jnp.maximum(surface - g.depth_below_surface, cfg.exploration.height_threshold)  # (B,)
 
-    n_axes = max(1, g.n_rotations // 2)
+    n_axes = g.n_axes
     theta = jnp.arange(n_axes, dtype=jnp.float32) * g.rotation_step  # (A,)
     axis = jnp.stack([jnp.sin(theta), jnp.cos(theta)], axis=-1)  # (A, 2) in (row, col)
     step = 0.5  # cells per sample along the axis

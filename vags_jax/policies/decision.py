@@ -89,8 +89,11 @@ def value_at(q: jax.Array, action: jax.Array) -> jax.Array:
     return q[b, action[:, 0], action[:, 1], action[:, 2]].astype(jnp.float32)
 
 
-def _symmetric_rotation(q: jax.Array, grasp: jax.Array) -> jax.Array:
-    """(B,) int32 the rotation of the same parallel-jaw grasp turned half a turn: (r + R/2) % R."""
+def _symmetric_rotation(q: jax.Array, grasp: jax.Array, half_turn: bool = False) -> jax.Array:
+    """(B,) int32 the rotation of the same parallel-jaw grasp turned half a turn: (r + R/2) % R;
+    with ``half_turn`` (rotations over half a turn, ``config.Grasp``) none repeats it: r itself."""
+    if half_turn:
+        return grasp[:, 0]
     n_rot = q.shape[1]
     if n_rot % 2:
         raise ValueError(f"a symmetric success estimate needs an even number of grasp rotations (the grasp "
@@ -98,11 +101,14 @@ def _symmetric_rotation(q: jax.Array, grasp: jax.Array) -> jax.Array:
     return (grasp[:, 0] + n_rot // 2) % n_rot
 
 
-def half_turn_mean(q: jax.Array, setting: str = "close_score") -> jax.Array:
+def half_turn_mean(q: jax.Array, setting: str = "close_score", half_turn: bool = False) -> jax.Array:
     """q (B, R, H, W) -> (B, R, H, W) float32: at rotation r the mean of q at r and r + R/2 (a
     parallel-jaw grasp and the same grasp turned half a turn, which the network sees on
     heightmaps rotated 180 degrees apart); averaging lowers the noise an argmax picks up.
-    setting: the ``vags`` field that asked for it, named in the error of an odd R."""
+    setting: the ``vags`` field that asked for it, named in the error of an odd R.  With
+    ``half_turn`` (rotations over half a turn) the network sees each grasp once: q itself."""
+    if half_turn:
+        return q.astype(jnp.float32)
     n_rot = q.shape[1]
     if n_rot % 2:
         raise ValueError(f"the half-turn mean needs an even number of grasp rotations (the grasp turned half a "
@@ -121,15 +127,18 @@ def _window_mean(q: jax.Array, rotation: jax.Array, row: jax.Array, col: jax.Arr
     return jnp.where(near, qr, 0.0).sum(axis=(1, 2)) / near.sum(axis=(1, 2))
 
 
-def success_estimate(q_success: jax.Array, grasp: jax.Array, estimate: str = "grasp") -> jax.Array:
+def success_estimate(q_success: jax.Array, grasp: jax.Array, estimate: str = "grasp",
+                     half_turn: bool = False) -> jax.Array:
     """The success net's estimate (B,) float32 of grasp (B, 3) [rotation, row, col] from its map
     q_success (B, R, H, W) (``config.Vags.gate_estimate``): "grasp", its value at the grasp;
     "symmetric", the mean with the value at the grasp turned half a turn (the same grasp of a
     parallel-jaw gripper, seen by the network on a heightmap rotated 180 degrees more);
-    "window", the mean over both rotations and the 3 x 3 cells around the grasp."""
+    "window", the mean over both rotations and the 3 x 3 cells around the grasp.  With
+    ``half_turn`` (rotations over half a turn) "symmetric" is "grasp" and "window" the mean over
+    the grasp's own rotation: the network sees each grasp once."""
     if estimate == "grasp":
         return value_at(q_success, grasp)
-    flipped = _symmetric_rotation(q_success, grasp)
+    flipped = _symmetric_rotation(q_success, grasp, half_turn)
     if estimate == "symmetric":
         return 0.5 * (value_at(q_success, grasp) + value_at(q_success, grasp.at[:, 0].set(flipped)))
     if estimate == "window":
@@ -138,12 +147,12 @@ def success_estimate(q_success: jax.Array, grasp: jax.Array, estimate: str = "gr
     raise ValueError(f"unknown success estimate {estimate!r}: one of {GATE_ESTIMATES}")
 
 
-def success_estimates(q_success: jax.Array, q_grasp: jax.Array, grasp: jax.Array) -> dict:
+def success_estimates(q_success: jax.Array, q_grasp: jax.Array, grasp: jax.Array, half_turn: bool = False) -> dict:
     """Every estimate of grasp (B, 3) for analysis (``stages.gate_measure`` records them):
     ``p_<estimate>`` for each of ``GATE_ESTIMATES`` (``success_estimate``), ``p_best`` the
     success net's largest value anywhere (B,), ``q_direct`` GDNet's Q (B,) at the grasp, from
-    q_success / q_grasp (B, R, H, W)."""
-    out = {f"p_{e}": success_estimate(q_success, grasp, e) for e in GATE_ESTIMATES}
+    q_success / q_grasp (B, R, H, W); ``half_turn``: ``success_estimate``'s."""
+    out = {f"p_{e}": success_estimate(q_success, grasp, e, half_turn) for e in GATE_ESTIMATES}
     out["p_best"] = jnp.max(q_success.reshape(q_success.shape[0], -1), axis=1).astype(jnp.float32)
     out["q_direct"] = value_at(q_grasp, grasp)
     return out
@@ -226,10 +235,12 @@ def _check_maps(q_grasp, q_view) -> None:
                          f"{tuple(q_view.shape)}")
 
 
-def direct_grasp(q_grasp: jax.Array, q_success: Optional[jax.Array], direct_score: str = "q"):
+def direct_grasp(q_grasp: jax.Array, q_success: Optional[jax.Array], direct_score: str = "q",
+                 half_turn: bool = False):
     """The direct grasp from the global maps (``config.Vags.direct_score``) -> (grasp (B, 3)
     int32 [rotation, row, col], GDNet's largest Q (B,) float32): GDNet's argmax ("q"), or the
-    argmax of q_success's ``half_turn_mean`` ("success"; q_success (B, R, H, W))."""
+    argmax of q_success's ``half_turn_mean`` ("success"; q_success (B, R, H, W); ``half_turn``:
+    the rotations span half a turn, ``config.Grasp.half_turn``)."""
     planned, q_max = greedy(q_grasp)
     if direct_score == "q":
         return planned, q_max
@@ -237,26 +248,27 @@ def direct_grasp(q_grasp: jax.Array, q_success: Optional[jax.Array], direct_scor
         raise ValueError(f"unknown direct score {direct_score!r}: one of {DIRECT_SCORES}")
     if q_success is None:
         raise ValueError("vags.direct_score=success plans the direct grasp with the success net, and none was given")
-    return greedy(half_turn_mean(q_success, "direct_score"))[0], q_max
+    return greedy(half_turn_mean(q_success, "direct_score", half_turn))[0], q_max
 
 
 def decide(q_grasp: jax.Array, q_view: jax.Array, threshold, q_success: Optional[jax.Array] = None,
            gate: str = "q", calibration: Optional[jax.Array] = None, view_estimate: str = "vanet",
            viewpoint: str = "vanet", gate_table: Optional[jax.Array] = None,
-           gate_estimate: str = "grasp", direct_score: str = "q") -> Decision:
+           gate_estimate: str = "grasp", direct_score: str = "q", half_turn: bool = False) -> Decision:
     """The decision on Q maps: q_grasp (B, R, H, W), q_view (B, H, W), threshold scalar (or
     (B,)), q_success (B, R, H, W), calibration (3,) and view_estimate for the "success" gate
     (``gate_score``), gate_table (2, K) for the "rate" gate; the direct grasp is
     ``direct_grasp``'s (``direct_score``), p_direct the success net's ``gate_estimate`` of it
     (``success_estimate``); grasp directly where the gate's score exceeds ``threshold``.  The
     view is VANet's argmax cell, or the direct grasp's with ``viewpoint="grasp"``
-    (``config.Vags.viewpoint``)."""
+    (``config.Vags.viewpoint``).  half_turn: GDNet's rotations span half a turn
+    (``config.Grasp.half_turn``; ``success_estimate``, ``half_turn_mean``)."""
     _check_maps(q_grasp, q_view)
-    grasp, q_max = direct_grasp(q_grasp, q_success, direct_score)
+    grasp, q_max = direct_grasp(q_grasp, q_success, direct_score, half_turn)
     view, v_max = greedy(q_view)
     if viewpoint == "grasp":
         view = grasp[:, 1:]
-    p_direct = None if q_success is None else success_estimate(q_success, grasp, gate_estimate)
+    p_direct = None if q_success is None else success_estimate(q_success, grasp, gate_estimate, half_turn)
     score = gate_score(gate, q_max, p_direct, v_max, calibration, view_estimate, gate_table)
     return Decision(direct=score > threshold, grasp=grasp, view=view, q_max=q_max, score=score)
 
@@ -275,7 +287,7 @@ def q_in_groups(one: Callable, group: int) -> Callable:
 
 def fused_grasp(color: jax.Array, height: jax.Array, depth: jax.Array, rgb: jax.Array, pose: jax.Array,
                 cam_cfg, ws_cfg, gdnet_q: Callable, anywhere: bool = False, success_q: Optional[Callable] = None,
-                need: Optional[jax.Array] = None):
+                need: Optional[jax.Array] = None, half_turn: bool = False):
     """The "gdnet" close-view planner's grasp: the close images depth (B, h, w) / rgb (B, h, w, 3)
     taken at pose (B, 4, 4) with camera cam_cfg, fused into the global maps color (B, H, W, 3) /
     height (B, H, W) (``view_fusion``), then the argmax among the cells the close view saw
@@ -285,11 +297,12 @@ def fused_grasp(color: jax.Array, height: jax.Array, depth: jax.Array, rgb: jax.
     (B,) float32, the fused color (B, H, W, 3) and height (B, H, W), seen (B, H, W) bool).
     gdnet_q / success_q: ``(color, height) -> (B, R, H, W)``; only the one scored is run.  need:
     (B,) bool, the worlds whose grasp is used: passed on as the scored callable's third argument
-    (``VagsNets.q_fn``), which may leave the others' maps zeros (their actions are then meaningless)."""
+    (``VagsNets.q_fn``), which may leave the others' maps zeros (their actions are then meaningless).
+    half_turn: the rotations span half a turn (``half_turn_mean``)."""
     color, height, seen = view_fusion.fuse_close_view(color, height, depth, rgb, pose, cam_cfg, ws_cfg)
     q_fn = gdnet_q if success_q is None else success_q
     q = q_fn(color, height) if need is None else q_fn(color, height, need)
-    score = q if success_q is None else half_turn_mean(q)
+    score = q if success_q is None else half_turn_mean(q, half_turn=half_turn)
     region = jnp.where(seen.any(axis=(1, 2), keepdims=True) & (not anywhere), seen, True)
     action, best = greedy(jnp.where(region[:, None], score, -jnp.inf))
     return action, best, color, height, seen
@@ -312,7 +325,8 @@ def close_view_grasp(cfg: Config, env: VagsEnv, state: EnvState, view: jax.Array
             raise ValueError("the 'gdnet' close-view planner needs GDNet")
         anywhere = cfg.vags.close_region == "map"
         action, _, color, height, seen = fused_grasp(state.color, state.height, image.depth, image.rgb, pose,
-                                                     cfg.camera, cfg.workspace, gdnet_q, anywhere, success_q, need)
+                                                     cfg.camera, cfg.workspace, gdnet_q, anywhere, success_q, need,
+                                                     cfg.grasp.half_turn)
         position, yaw = env.grasp_pose(state.replace(height=height), action[:, 1:], action[:, 0])
         close = CloseView(image=image, color=color, height=height, seen=seen, action=action)
     else:
@@ -398,7 +412,8 @@ class VagsNets:
         q_grasp, q_view, q_success = self.q_maps(params, state.color, state.height)
         decision = decide(q_grasp, q_view, params["threshold"], q_success, self.cfg.vags.gate,
                           params.get("calibration"), self.cfg.vags.view_estimate, self.cfg.vags.viewpoint,
-                          params.get("gate_table"), self.cfg.vags.gate_estimate, self.cfg.vags.direct_score)
+                          params.get("gate_table"), self.cfg.vags.gate_estimate, self.cfg.vags.direct_score,
+                          self.cfg.grasp.half_turn)
         return decision, q_grasp, q_view
 
     def plan(self, params: dict, key, env: VagsEnv, state: EnvState):

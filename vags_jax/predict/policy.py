@@ -290,14 +290,15 @@ def _global_program(params, depth, rgb, pose, *, cfg, cam, gdnet_only):
         q_grasp, q_view, q_success = nets.q_maps(params, color, height)
         d = decision.decide(q_grasp, q_view, params["threshold"], q_success, cfg.vags.gate, params.get("calibration"),
                             cfg.vags.view_estimate, cfg.vags.viewpoint, params.get("gate_table"),
-                            cfg.vags.gate_estimate, cfg.vags.direct_score)
+                            cfg.vags.gate_estimate, cfg.vags.direct_score, cfg.grasp.half_turn)
         _, p_view = decision.greedy(q_view)
         out.update(grasp=d.grasp, q_max=d.q_max, score=d.score, direct=d.direct, view=d.view, p_view=p_view,
                    view_pose=camera.viewpoint_pose(d.view, height, cfg.workspace, cfg.camera))
         if q_success is not None:
-            out["p_direct"] = decision.success_estimate(q_success, d.grasp, cfg.vags.gate_estimate)
+            out["p_direct"] = decision.success_estimate(q_success, d.grasp, cfg.vags.gate_estimate,
+                                                        cfg.grasp.half_turn)
         # The value the direct grasp maximized: GDNet's Q, or the success net's half-turn mean.
-        out["direct_value"] = (decision.success_estimate(q_success, d.grasp, "symmetric")
+        out["direct_value"] = (decision.success_estimate(q_success, d.grasp, "symmetric", cfg.grasp.half_turn)
                                if cfg.vags.direct_score == "success" else d.q_max)
     out["position"], out["yaw"] = grasp_pose(cfg, height, out["grasp"][:, 1:], out["grasp"][:, 0])
     return out
@@ -310,7 +311,8 @@ def _close_gdnet_program(params, color, height, depth, rgb, pose, *, cfg, cam):
     nets = _nets(cfg)
     action, score, _, fused, seen = decision.fused_grasp(color, height, depth[None], rgb[None], pose[None], cam,
                                                          cfg.workspace, nets.close_q(params),
-                                                         cfg.vags.close_region == "map", nets.close_success_q(params))
+                                                         cfg.vags.close_region == "map", nets.close_success_q(params),
+                                                         half_turn=cfg.grasp.half_turn)
     position, yaw = grasp_pose(cfg, fused, action[:, 1:], action[:, 0])
     return {"grasp": action, "score": score, "position": position, "yaw": yaw, "seen": seen.sum()}
 

@@ -103,7 +103,8 @@ def make_collect(cfg, env: VagsEnv, nets: VagsNets, extra: tuple = ()):
         if "oracle" in extra:
             color, height = topdown.maps(state.sim)
             qg, qv, qs = nets.q_maps(params, color, height)
-            g = decide(qg, qv, 0.0, qs, "q", viewpoint=cfg.vags.viewpoint, direct_score=cfg.vags.direct_score).grasp
+            g = decide(qg, qv, 0.0, qs, "q", viewpoint=cfg.vags.viewpoint, direct_score=cfg.vags.direct_score,
+                       half_turn=cfg.grasp.half_turn).grasp
             pose = env.grasp_pose(state.replace(height=height), g[:, 1:], g[:, 0])
             rows.update(branch("oracle", state, env.direct_attempt(*pose))[1])
         if "random" in extra:
@@ -115,7 +116,7 @@ def make_collect(cfg, env: VagsEnv, nets: VagsNets, extra: tuple = ()):
                                         nets.ggcnn, nets.close_success_q(params))
             rows.update(branch("random", state, moved)[1])
         if "planned" in extra:
-            g = direct_grasp(q_grasp, q_success, "success")[0]
+            g = direct_grasp(q_grasp, q_success, "success", cfg.grasp.half_turn)[0]
             rows.update(branch("planned", state, env.direct_attempt(*env.grasp_pose(state, g[:, 1:], g[:, 0])))[1])
         return rows
 
@@ -123,7 +124,7 @@ def make_collect(cfg, env: VagsEnv, nets: VagsNets, extra: tuple = ()):
         k_img, k_obs = jax.random.split(key)
         q_grasp, q_view, q_success = nets.q_maps(params, state.color, state.height)
         d = decide(q_grasp, q_view, 0.0, q_success, "q", viewpoint=cfg.vags.viewpoint,
-                   direct_score=cfg.vags.direct_score)
+                   direct_score=cfg.vags.direct_score, half_turn=cfg.grasp.half_turn)
         pos, yaw = env.grasp_pose(state, d.grasp[:, 1:], d.grasp[:, 0])
         direct = env.direct_attempt(pos, yaw)
         moved, _ = close_view_grasp(cfg, env, state, d.view, k_img, nets.close_q(params),
@@ -137,7 +138,7 @@ def make_collect(cfg, env: VagsEnv, nets: VagsNets, extra: tuple = ()):
         if extra:
             rows_direct = {**rows_direct, **extra_rows(params, jax.random.fold_in(key, 1), state, q_grasp,
                                                         q_success)}
-        estimates = success_estimates(q_success, q_grasp, d.grasp)
+        estimates = success_estimates(q_success, q_grasp, d.grasp, cfg.grasp.half_turn)
         out = {"p_direct": estimates[f"p_{cfg.vags.gate_estimate}"], **estimates,
                "objects": env.n_remaining(state), "live": (env.n_remaining(state) > 0) & ~state.sim.error,
                **rows_direct, **rows_moved}

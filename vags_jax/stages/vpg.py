@@ -82,6 +82,9 @@ def check_config(cfg: Config) -> None:
     if cfg.dqn.symmetric_grasp_label:
         raise ValueError("dqn.symmetric_grasp_label does not apply to vpg (its channels mix pushes and "
                          "grasps): set dqn.symmetric_grasp_label=false")
+    if cfg.grasp.half_turn:
+        raise ValueError("vpg pushes in all n_rotations directions of a whole turn: set grasp.half_turn=false "
+                         "and net.half_turn=false for --stage vpg")
     if cfg.net.init is not None:
         raise ValueError("net.init (ImageNet DenseNet-121 weights) is not loaded into VPG's four trunks: "
                          "set net.init=null for --stage vpg")
