@@ -812,7 +812,7 @@ def test_eval_rounds_that_cannot_fit(capsys):
     ("out-under-file", r"--out .* is a file, not a directory"),
     ("run-is-file", r"--run .* is a file; give the run directory train\.py wrote"),
     ("run-and-config", r"--run uses the run's own config\.json; drop --config"),
-    ("gdnet-net-change", r"--set must not change net\.\* or workspace\.\*"),
+    ("gdnet-net-change", r"--set must not change net\.\* \(but net\.n_rotations .*\) or workspace\.\*"),
     ("gdnet-missing-step", r"no checkpoint 3 in .* \(available steps: \[2, 4\]\)"),
 ])
 def test_eval_paths(kind, msg, tmp_path, capsys, fake_run):

@@ -189,6 +189,17 @@ def test_heuristic_picks_narrow_axis_on_the_highest_object():
     np.testing.assert_allclose(np.asarray(got_width), width)
 
 
+def test_an_evaluation_may_turn_gdnet_over_other_rotations_but_not_change_its_network():
+    from types import SimpleNamespace
+    run_cfg = C.tiny()
+    args = SimpleNamespace(scenes="default", objects=None)
+    half = {"grasp.n_rotations": 8, "net.n_rotations": 8, "grasp.half_turn": True, "net.half_turn": True}
+    cfg = requests._eval_config(args, "gdnet", run_cfg, None, half)
+    assert cfg.net.n_rotations == 8 and cfg.net.half_turn and cfg.grasp.half_turn
+    with pytest.raises(ValueError, match=r"must not change net\.\* \(but net\.n_rotations"):
+        requests._eval_config(args, "gdnet", run_cfg, None, {**half, "net.small_width": 16})
+
+
 def test_random_and_gdnet_policies_on_maps():
     cfg = C.tiny()
     h = _bars(cfg)

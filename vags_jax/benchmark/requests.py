@@ -310,9 +310,12 @@ def _eval_config(args, policy, run_cfg, ggcnn_cfg, overrides):
                            "scene.copies_per_shape": 1})
     cfg = C.replace(run_cfg, **scene_over, **overrides)
     scene.build_spec(cfg)  # the scene's own checks (shape names), in milliseconds
-    if policy in ("gdnet", "vags", "nbv", "vpg") and (cfg.net != run_cfg.net or cfg.workspace != run_cfg.workspace):
-        raise ValueError("--set must not change net.* or workspace.*: the trained GDNet needs the "
-                         "network and heightmaps it was trained with")
+    # The rotations GDNet is evaluated over are not parameters: any count or span reads the same weights.
+    turns = {"n_rotations": run_cfg.net.n_rotations, "half_turn": run_cfg.net.half_turn}
+    if policy in ("gdnet", "vags", "nbv", "vpg") and (dataclasses.replace(cfg.net, **turns) != run_cfg.net
+                                                     or cfg.workspace != run_cfg.workspace):
+        raise ValueError("--set must not change net.* (but net.n_rotations and net.half_turn, with grasp.*'s) "
+                         "or workspace.*: the trained GDNet needs the network and heightmaps it was trained with")
     if ggcnn_cfg is not None and (
             (cfg.ggcnn.input_size, cfg.ggcnn.crop_size) != (ggcnn_cfg.ggcnn.input_size, ggcnn_cfg.ggcnn.crop_size)
             or (cfg.camera.width, cfg.camera.height, cfg.camera.fx, cfg.camera.fy)
