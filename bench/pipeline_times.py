@@ -34,6 +34,8 @@ def ahead(rows: dict, key: str) -> str:
     r = rows.get(key)
     if r is None:
         return "not run"
+    if "compile" not in r:  # a child that failed before it reported its programs
+        return f"{r['status']}, {r['wall_s']:.0f} s"
     return f"{r['status']}, {r['compile']['compiled']} compiled, {r['compile']['loaded']} loaded, {r['wall_s']:.0f} s"
 
 

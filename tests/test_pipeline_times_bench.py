@@ -15,6 +15,7 @@ def _folder(tmp_path):
     rows = [{"stage": s, "wall_s": w, "compile": {"seconds": c, "compiled": 1, "loaded": 2}}
             for s, w, c in (("stage1", 197.3, 40.0), ("stage2", 64.9, 10.0), ("stage3", 74.0, 0.0), ("gate", 35.9, 4.2))]
     rows.append({"stage": "compile_ahead", "status": "done", "wall_s": 79.4, "compile": {"compiled": 18, "loaded": 93}})
+    rows.append({"stage": "compile_ahead_gate", "status": "exit code -11", "wall_s": 51.7})  # died before its report
     (tmp_path / "f44").mkdir()
     (tmp_path / "f44" / "timings.jsonl").write_text("\n".join(json.dumps(r) for r in rows) + "\n")
     return tmp_path
@@ -25,7 +26,7 @@ def test_rows_from_the_log_and_timings(tmp_path):
     assert wall_clocks(str(d / "machine_log.txt")) == {"f44": 385, "w45": 261}  # w46 failed: no wall clock
     lines = table(str(d), [("f44", "cold"), ("w45", "")]).splitlines()
     assert lines[2] == ("| f44, cold | 385 | 197.3 | 64.9 | 74.0 | 35.9 | 54.2 | done, 18 compiled, 93 loaded, 79 s"
-                        " / not run |")
+                        " / exit code -11, 52 s |")
     assert lines[3] == "| w45 | not run | | | | | | |"  # no timings.jsonl kept
 
 
