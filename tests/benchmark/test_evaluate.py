@@ -216,6 +216,27 @@ def test_random_and_gdnet_policies_on_maps():
     q = np.asarray(net.apply(variables, state.color, state.height, False))
     assert a.shape == (3, 3)
     np.testing.assert_allclose(q[np.arange(3), a[:, 0], a[:, 1], a[:, 2]], q.reshape(3, -1).max(1))
+    # In groups of net.forward_batch worlds (here 2 of 3, the last group padded): the same grasps.
+    grouped = C.replace(cfg, **{"net.forward_batch": 2})
+    act = P.make_policy("gdnet", grouped, variables).act
+    np.testing.assert_array_equal(np.asarray(act(variables, None, state)), a)
+    # ... and no convolution sees more than 2 worlds' rotated images at once.
+    batches = _conv_batches(jax.make_jaxpr(lambda v, st: act(v, None, st))(variables, state).jaxpr)
+    assert max(batches) == 2 * cfg.net.n_rotations, batches
+
+
+def _conv_batches(jaxpr) -> set:
+    """The leading sizes of every convolution's input in a jaxpr and the jaxprs inside it."""
+    out = set()
+    for eqn in jaxpr.eqns:
+        if eqn.primitive.name == "conv_general_dilated":
+            out.add(eqn.invars[0].aval.shape[0])
+        for v in eqn.params.values():
+            for sub in (v if isinstance(v, (tuple, list)) else (v,)):
+                inner = getattr(sub, "jaxpr", sub)
+                if hasattr(inner, "eqns"):
+                    out |= _conv_batches(inner)
+    return out
 
 
 # ----------------------------------------------------------------------------- one real tiny evaluation

@@ -47,6 +47,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from vags_jax.batching import map_in_groups
 from vags_jax.config import Config
 from vags_jax.env import Attempt, EnvState, VagsEnv
 from vags_jax.ggcnn.planner import predict_grasp
@@ -325,15 +326,16 @@ def heuristic_act(cfg: Config) -> Callable:
 
 
 def gdnet_act(cfg: Config) -> Callable:
-    """Greedy GDNet: params = {"params", "batch_stats"} of the online network."""
+    """Greedy GDNet: params = {"params", "batch_stats"} of the online network, run over the
+    worlds in groups of ``net.forward_batch`` (the rotations of hundreds of worlds at once need
+    tens of GB), as VAGS's networks are."""
     net = make_qnet(cfg.net, "gdnet")
 
     def act(params, key, state: EnvState):
         del key
-        q = net.apply(params, state.color, state.height, False)  # (B, R, H, W)
-        b, r, h, w = q.shape
-        flat = jnp.argmax(q.reshape(b, -1), axis=1)
-        return jnp.stack(jnp.unravel_index(flat, (r, h, w)), axis=-1).astype(jnp.int32)
+        q = map_in_groups(lambda c, h: net.apply(params, c, h, False), (state.color, state.height),
+                          cfg.net.forward_batch)  # (B, R, H, W)
+        return greedy(q)[0]
 
     return act
 
