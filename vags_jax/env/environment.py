@@ -20,7 +20,6 @@ heightmaps) of every world.  A *round* is one scene: it ends when the table is c
 from __future__ import annotations
 
 import math
-
 from typing import Optional
 
 import jax
