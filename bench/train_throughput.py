@@ -138,7 +138,8 @@ def update_mfu(cfg, peak: float, n_updates: int, reps: int = 3, parts: bool = Tr
     f_target, f_online = forward_flops(target, variables), forward_flops(online, variables)
     flops = passes * f_target + 3 * f_online
     result = {"trunk": cfg.net.trunk, "dtype": cfg.net.dtype, "batch_size": cfg.dqn.batch_size,
-              "heightmap_px": H, "rotations": cfg.net.n_rotations, "half_turn": cfg.net.half_turn, "update_flops": flops, "target_pass_flops": f_target,
+              "heightmap_px": H, "rotations": cfg.net.n_rotations, "half_turn": cfg.net.half_turn,
+              "update_flops": flops, "target_pass_flops": f_target,
               "online_forward_flops": f_online, "target_passes": passes, "xla_flops": None, "update_s": dt,
               "updates_per_s": 1 / dt, "achieved_flops_per_s": flops / dt, "mfu": flops / dt / peak, "parts": {}}
     if not parts:

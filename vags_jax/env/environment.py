@@ -341,8 +341,9 @@ class VagsEnv(Observation):
             raise ValueError(f"rotation must be a (B,) = ({B},) integer array; got shape "
                              f"{rotation.shape} dtype {rotation.dtype}")
         if rotation.min() < 0 or rotation.max() >= R:
+            wrong = rotation[(rotation < 0) | (rotation >= R)][:4].tolist()
             raise ValueError(f"rotation index must lie in 0..{R - 1} ({R} rotations of "
-                             f"{math.degrees(self.cfg.grasp.rotation_step):.1f} deg); got {rotation[(rotation < 0) | (rotation >= R)][:4].tolist()}")
+                             f"{math.degrees(self.cfg.grasp.rotation_step):.1f} deg); got {wrong}")
         key = None if key is None else _raw_key(key)
         state, result = self._grasp_jit(state, jnp.asarray(pixel, jnp.int32), jnp.asarray(rotation, jnp.int32), key)
         check_overflow(state.sim)
