@@ -25,7 +25,8 @@ def test_run_logs_and_keeps_the_callers_variables(tmp_path):
     assert [line.split()[:2] for line in log] == [["train_s47full", "rc=0"], ["train_s47half", "rc=0"],
                                                   ["train_f1", "rc=1"], ["x", "rc=0"]]
     assert (res / "train_s47half.txt").read_text() == "hi\n"
-    assert wall_clocks(str(res / "machine_log.txt")) == {"s47": 0}  # the runs that exited 0, by run name
+    clocks = wall_clocks(str(res / "machine_log.txt"))  # the runs that exited 0, by run name
+    assert list(clocks) == ["s47"] and clocks["s47"] in (0, 1)  # seconds: a clock tick may fall inside
 
 
 def test_keep_copies_a_runs_small_files(tmp_path):

@@ -24,8 +24,8 @@ def test_half_turn_rotations_are_set_on_both_sections_and_refuse_the_mirror_labe
         C.replace(C.Config(), **{"grasp.half_turn": True})
     with pytest.raises(ValueError, match=r"set dqn\.symmetric_grasp_label=false"):
         C.replace(half, **{"dqn.symmetric_grasp_label": True})
+    from vags_jax.nets.vpg import make_vpg_net
     with pytest.raises(ValueError, match=r"net\.half_turn=false"):
-        from vags_jax.nets.vpg import make_vpg_net
         make_vpg_net(half.net)
 
 

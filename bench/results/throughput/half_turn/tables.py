@@ -88,13 +88,11 @@ def benchmark_table():
 def pick_table():
     """The GDNets the gate table measured (gate.json "gdnet_pick"): success of the direct grasp
     and of the grasp after a move on the table's states, and the one kept ("gdnet")."""
+    from viewpoint_goals import read_report  # a JSON file, or gzipped beside it
     print("\n| run | candidate | direct grasp success % | grasp after a move success % | picks per second | kept |")
     print("|---|---|---:|---:|---:|---|")
     for run, (d, _, _) in RUNS.items():
-        path = os.path.join(d, "gate.json")
-        opener = open if os.path.exists(path) else gzip.open
-        with opener(path if os.path.exists(path) else path + ".gz", "rt") as f:
-            g = json.load(f)
+        g = read_report(os.path.join(d, "gate.json"))
         for name, c in g["gdnet_pick"].items():
             kept = (c["gdnet"], c["close_gdnet"]) == (g["gdnet"], g["close_gdnet"])
             print(f"| {run} | {name} | {100 * c['direct_success']:.1f} | {100 * c['moved_success']:.1f} | "
