@@ -1351,6 +1351,8 @@ def test_the_rate_gate_without_a_table_for_the_runs_networks_says_how_to_measure
     assert code == 2 and line == "python -m vags_jax.stages.gate_measure: --worlds must be at least 1, got 0"
     code, line = _cli(gate_measure.main, ["--run", str(tmp_path / "none")], capsys)
     assert code == 2 and line.startswith("python -m vags_jax.stages.gate_measure: ") and "none" in line, line
+    code, line = _cli(gate_measure.main, ["--run", run, "--cache-dir", "/proc/version"], capsys)
+    assert code == 2 and "--cache-dir '/proc/version': cannot create it" in line, line
 
 
 # ----------------------------------------------------------------------------- out of accelerator memory

@@ -55,6 +55,31 @@ def test_the_direct_grasp_is_the_configured_planners_argmax():
         direct_grasp(q, s, "ggcnn")
 
 
+def test_the_q_mean_direct_grasp_is_the_argmax_of_gdnets_two_views_of_each_grasp():
+    """GDNet's map: 5.0 at rotation 0 of cell (5, 5) with 0.0 at its half turn (rotation 2 of 4:
+    mean 2.5); 3.0 at rotations 1 and 3 of cell (6, 1) (mean 3.0).  The plain argmax takes the
+    single larger view, the half-turn mean the grasp both views rate."""
+    g = np.zeros((1, 4, 8, 8), np.float32)
+    g[0, 0, 5, 5] = 5.0
+    g[0, 1, 6, 1] = g[0, 3, 6, 1] = 3.0
+    q = jnp.asarray(g)
+    assert np.asarray(direct_grasp(q, None, "q")[0])[0].tolist() == [0, 5, 5]
+    grasp, q_max = direct_grasp(q, None, "q_mean")  # no success net needed
+    assert np.asarray(grasp)[0].tolist() == [1, 6, 1]
+    assert float(q_max[0]) == 5.0  # the "q" gate still reads GDNet's largest Q
+    d = decide(q, jnp.zeros((1, 8, 8), jnp.float32), 0.0, None, "q", viewpoint="grasp", direct_score="q_mean")
+    assert np.asarray(d.grasp)[0].tolist() == [1, 6, 1] and np.asarray(d.view)[0].tolist() == [6, 1]
+    # Over half a turn each grasp has one view: the plain argmax.
+    assert np.asarray(direct_grasp(q, None, "q_mean", half_turn=True)[0])[0].tolist() == [0, 5, 5]
+    with pytest.raises(ValueError, match="use vags.direct_score=q"):
+        direct_grasp(q[:, :3], None, "q_mean")
+    cfg = C.replace(C.preset("tiny"), **{"vags.direct_score": "q_mean"})
+    assert cfg.vags.direct_score == "q_mean"
+    nets = VagsNets(C.replace(cfg, **{"vags.gate": "q"}))
+    nets.q_fn = lambda net, variables: (lambda c, h: jnp.zeros((1, 4, 8, 8)))
+    assert nets.q_maps({"gdnet": "g", "vanet": "v"}, None, None)[2] is None  # the success net is not run
+
+
 def test_the_success_net_runs_for_a_success_planned_direct_grasp_under_any_gate():
     cfg = C.replace(C.preset("tiny"), **{"vags.gate": "q", "vags.direct_score": "success"})
     nets = VagsNets(cfg)

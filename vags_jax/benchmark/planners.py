@@ -7,7 +7,8 @@ from typing import Optional
 
 from vags_jax.config import Config
 
-_DIRECT = {"q": "GDNet's argmax", "success": "the success net's argmax (its half-turn mean)"}
+_DIRECT = {"q": "GDNet's argmax", "q_mean": "GDNet's argmax of its half-turn mean",
+           "success": "the success net's argmax (its half-turn mean)"}
 _AFTER_MOVE = {"q": "GDNet's argmax on the maps fused with the close view",
                "success": "the success net's argmax on the maps fused with the close view",
                "ggcnn": "GG-CNN's best grasp in the close depth image"}

@@ -692,7 +692,7 @@ VAGS_STAGE3_GDNET_PICKS = ("rate", "last")
 VAGS_CLOSE_REGIONS = ("seen", "map")
 VAGS_GATE_ESTIMATES = ("grasp", "symmetric", "window")
 VAGS_CLOSE_SCORES = ("q", "success")
-VAGS_DIRECT_SCORES = ("q", "success")
+VAGS_DIRECT_SCORES = ("q", "q_mean", "success")
 
 
 @dataclass(frozen=True)
@@ -765,9 +765,11 @@ class Vags:
       ``train_close_score``.  The table records it (RUN/gate.json "close_score"), and a run is
       evaluated with the setting its table was measured with.
     direct_score: what plans the direct grasp from the global view.  "q": GDNet's argmax (the
-      paper); "success": the argmax of the success net's half-turn mean over the global maps,
-      the score the "gdnet" planner maximizes after a move under ``close_score="success"`` (so
-      ``--no-viewpoint`` then measures the same planner without the move).  Read where a
+      paper); "q_mean": the argmax of GDNet's half-turn mean (each parallel-jaw grasp's two
+      rotations, r and r + R/2, averaged: two views of one grasp); "success": the argmax of
+      the success net's half-turn mean over the global maps, the score the "gdnet" planner
+      maximizes after a move under ``close_score="success"`` (so ``--no-viewpoint`` then
+      measures the same planner without the move).  Read where a
       trained run is used (eval.py, the rate gate's table, predict); training plans GDNet's
       argmax.  The table records it (RUN/gate.json "direct_score"), and a run is evaluated with
       the setting its table was measured with.

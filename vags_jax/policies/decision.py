@@ -238,12 +238,15 @@ def _check_maps(q_grasp, q_view) -> None:
 def direct_grasp(q_grasp: jax.Array, q_success: Optional[jax.Array], direct_score: str = "q",
                  half_turn: bool = False):
     """The direct grasp from the global maps (``config.Vags.direct_score``) -> (grasp (B, 3)
-    int32 [rotation, row, col], GDNet's largest Q (B,) float32): GDNet's argmax ("q"), or the
-    argmax of q_success's ``half_turn_mean`` ("success"; q_success (B, R, H, W); ``half_turn``:
-    the rotations span half a turn, ``config.Grasp.half_turn``)."""
+    int32 [rotation, row, col], GDNet's largest Q (B,) float32): GDNet's argmax ("q"), the
+    argmax of GDNet's own ``half_turn_mean`` ("q_mean"), or the argmax of q_success's
+    ``half_turn_mean`` ("success"; q_success (B, R, H, W); ``half_turn``: the rotations span
+    half a turn, ``config.Grasp.half_turn``)."""
     planned, q_max = greedy(q_grasp)
     if direct_score == "q":
         return planned, q_max
+    if direct_score == "q_mean":
+        return greedy(half_turn_mean(q_grasp, "direct_score", half_turn))[0], q_max
     if direct_score != "success":
         raise ValueError(f"unknown direct score {direct_score!r}: one of {DIRECT_SCORES}")
     if q_success is None:

@@ -34,6 +34,9 @@ from vags_jax.stages.rundir import load_gdnet
 FIXED_WORKSPACE = ("size", "heightmap_px")
 GGCNN_SCALE_TOLERANCE = 0.1  # relative focal-length difference GG-CNN's close image may have
 
+# The key of the value a direct grasp maximized, by ``vags.direct_score``.
+_DIRECT_VALUE_KEY = {"q": "q", "q_mean": "q_mean", "success": "p_success"}
+
 
 @dataclass
 class Frame:
@@ -187,7 +190,7 @@ class FramePolicy:
                "gdnet": self.gdnet_source, "close_gdnet": self.close_source}
         out["gate"], out["reason"] = self._gate(g)
         direct = self._heightmap_grasp(g["grasp"][0], g["position"][0], g["yaw"][0], g["direct_value"][0], "global",
-                                       "p_success" if self.cfg.vags.direct_score == "success" else "q")
+                                       _DIRECT_VALUE_KEY[self.cfg.vags.direct_score])
         if out["decision"] == "grasp":
             out["grasp"] = direct
             if close is not None:
@@ -245,8 +248,9 @@ class FramePolicy:
                       f"score {score:+.4f} {rel} threshold {thr:+.4f}: {verdict}")
 
     def _heightmap_grasp(self, action, position, yaw, score, view: str, scored: str = "q") -> dict:
-        """scored: the key of the value the grasp maximized ("q": GDNet's Q; "p_success": the
-        success net's half-turn mean, ``vags.close_score`` / ``vags.direct_score`` "success")."""
+        """scored: the key of the value the grasp maximized ("q": GDNet's Q; "q_mean": GDNet's
+        half-turn mean, ``vags.direct_score`` "q_mean"; "p_success": the success net's half-turn
+        mean, ``vags.close_score`` / ``vags.direct_score`` "success")."""
         return {"view": view, "planner": "gdnet", "position": _json_floats(position),
                 "yaw": _json_float(yaw), "gripper_width": self.cfg.grasp.finger_stroke, scored: _json_float(score),
                 "pixel": [int(action[1]), int(action[2])], "rotation": int(action[0])}
@@ -297,9 +301,14 @@ def _global_program(params, depth, rgb, pose, *, cfg, cam, gdnet_only):
         if q_success is not None:
             out["p_direct"] = decision.success_estimate(q_success, d.grasp, cfg.vags.gate_estimate,
                                                         cfg.grasp.half_turn)
-        # The value the direct grasp maximized: GDNet's Q, or the success net's half-turn mean.
-        out["direct_value"] = (decision.success_estimate(q_success, d.grasp, "symmetric", cfg.grasp.half_turn)
-                               if cfg.vags.direct_score == "success" else d.q_max)
+        # The value the direct grasp maximized: GDNet's Q, its half-turn mean, or the success net's.
+        if cfg.vags.direct_score == "success":
+            out["direct_value"] = decision.success_estimate(q_success, d.grasp, "symmetric", cfg.grasp.half_turn)
+        elif cfg.vags.direct_score == "q_mean":
+            out["direct_value"] = decision.value_at(decision.half_turn_mean(q_grasp, "direct_score",
+                                                                            cfg.grasp.half_turn), d.grasp)
+        else:
+            out["direct_value"] = d.q_max
     out["position"], out["yaw"] = grasp_pose(cfg, height, out["grasp"][:, 1:], out["grasp"][:, 0])
     return out
 

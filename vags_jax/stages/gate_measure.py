@@ -74,8 +74,8 @@ def make_collect(cfg, env: VagsEnv, nets: VagsNets, extra: tuple = ()):
     "moved") its ``success``, ``lost`` (objects that left the table without a grasp),
     ``motions``, ``travel`` (m, camera move + approach + descend + lift) and ``back`` (m, the
     return to the global pose after a failure); ``objects`` (int32) on the table before the
-    attempt; ``live`` worlds with objects and no physics error.  Under ``direct_score="success"``
-    a third branch, "gdnet", grasps at GDNet's argmax from the same state (the paper's direct
+    attempt; ``live`` worlds with objects and no physics error.  Under a ``direct_score`` other
+    than "q" a third branch, "gdnet", grasps at GDNet's argmax from the same state (the paper's direct
     grasp, for comparing the two planners state by state).  The next state follows the
     direct grasp, or the grasp after the move where follow_moved (() bool, traced: one program
     for both) is set: the branch's own outcome, re-observed, so the program simulates each
@@ -411,9 +411,13 @@ def main(argv=None) -> int:
                    "a table with --set vags.close_score=...")
     p.add_argument("--direct-score", choices=DIRECT_SCORES, default=None,
                    help="what plans the direct grasps (default: the run's vags.direct_score); evaluate such a table "
-                   "with --set vags.direct_score=...; with success the states also hold GDNet's direct grasp "
+                   "with --set vags.direct_score=...; with q_mean or success the states also hold GDNet's direct grasp "
                    "(gdnet_success, ...)")
+    cli.add_cache_dir(p)
     args = p.parse_args(argv)
+    error = cli.use_compile_cache(PROG, args.cache_dir)
+    if error is not None:
+        return error
     if args.refit and (args.bins is None or any(getattr(args, n) is not None for n in ("worlds", "steps", "seed",
                                                                                       "count_lost", "gdnet",
                                                                                       "close_score", "direct_score"))
