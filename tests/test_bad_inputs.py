@@ -625,6 +625,13 @@ def test_eval_run_names_the_damage(kind, tmp_path, capsys, fake_run):
     assert re.search(DAMAGE[kind], line), line
 
 
+def test_eval_gdnet_alone_cannot_plan_by_the_success_net(tmp_path, capsys, fake_run):
+    run = fake_run(tmp_path)
+    argv = ["--run", run, "--policy", "gdnet", "--groups", "1-2", "--rounds", "2", "--set", "vags.direct_score=success"]
+    code, line = _cli(eval_cli.main, argv, capsys)
+    assert code == 2 and "--policy gdnet plans with GDNet alone: vags.direct_score must be one of q, q_mean" in line
+
+
 @pytest.mark.parametrize("policy", ["ggcnn", "ggcnn-close"])
 def test_eval_ggcnn_on_a_run_without_ggcnn_says_how_to_train_one(policy, tmp_path, capsys, fake_run):
     run = fake_run(tmp_path)

@@ -223,6 +223,14 @@ def test_random_and_gdnet_policies_on_maps():
     # ... and no convolution sees more than 2 worlds' rotated images at once.
     batches = _conv_batches(jax.make_jaxpr(lambda v, st: act(v, None, st))(variables, state).jaxpr)
     assert max(batches) == 2 * cfg.net.n_rotations, batches
+    # vags.direct_score=q_mean: the grasp whose two views (rotations r and r + 8 of 16) have the
+    # largest mean Q, computed here with numpy.
+    mean_cfg = C.replace(cfg, **{"vags.direct_score": "q_mean"})
+    m = np.asarray(P.make_policy("gdnet", mean_cfg, variables).act(variables, None, state))
+    both = 0.5 * (q + np.roll(q, -cfg.net.n_rotations // 2, axis=1))
+    np.testing.assert_allclose(both[np.arange(3), m[:, 0], m[:, 1], m[:, 2]], both.reshape(3, -1).max(1), rtol=1e-6)
+    with pytest.raises(ValueError, match="the gdnet policy plans with GDNet alone.*needs the success net"):
+        P.make_policy("gdnet", C.replace(cfg, **{"vags.direct_score": "success"}), variables)
 
 
 def _conv_batches(jaxpr) -> set:

@@ -357,6 +357,10 @@ def prepare_eval(args) -> SimpleNamespace:
         raise ValueError(f"unknown policy {policy!r}; choose one of {', '.join(P.POLICIES)}")
     variables, step = None, vpg_step
     if policy == "gdnet":  # the learner, checked against the run's network config
+        if cfg.vags.direct_score not in P.GDNET_ALONE_SCORES:
+            raise ValueError(f"--policy gdnet plans with GDNet alone: vags.direct_score must be one of "
+                             f"{', '.join(P.GDNET_ALONE_SCORES)} (got {cfg.vags.direct_score!r}; the success net's "
+                             f"direct grasp is --policy vags --no-viewpoint --set vags.direct_score=success)")
         _, variables, step = rundir.load_gdnet(args.run, args.step)
     if policy == "vags":  # the config's gate / close-view planner against the run's networks
         P.vags_params(networks, cfg, -math.inf if args.no_viewpoint else args.threshold)

@@ -53,7 +53,7 @@ from vags_jax.env import Attempt, EnvState, VagsEnv
 from vags_jax.ggcnn.planner import predict_grasp
 from vags_jax.nets import make_qnet, nbv_net
 from vags_jax.nets.ggcnn import GGCNN
-from vags_jax.policies.decision import VagsNets, close_view_grasp, gate_threshold, greedy
+from vags_jax.policies.decision import VagsNets, close_view_grasp, direct_grasp, gate_threshold, greedy
 from vags_jax.policies.mvp import MvpPlanner
 from vags_jax.policies.vpg import vpg_plan
 
@@ -325,17 +325,25 @@ def heuristic_act(cfg: Config) -> Callable:
     return act
 
 
+GDNET_ALONE_SCORES = ("q", "q_mean")  # the vags.direct_score values GDNet alone can plan by
+
+
 def gdnet_act(cfg: Config) -> Callable:
     """Greedy GDNet: params = {"params", "batch_stats"} of the online network, run over the
     worlds in groups of ``net.forward_batch`` (the rotations of hundreds of worlds at once need
-    tens of GB), as VAGS's networks are."""
+    tens of GB), as VAGS's networks are; its grasp is ``decision.direct_grasp``'s under
+    ``vags.direct_score`` "q" (the argmax) or "q_mean" (the argmax of its half-turn mean)."""
+    if cfg.vags.direct_score not in GDNET_ALONE_SCORES:
+        raise ValueError(f"the gdnet policy plans with GDNet alone, and vags.direct_score="
+                         f"{cfg.vags.direct_score} needs the success net of a VAGS run: use one of "
+                         f"{', '.join(GDNET_ALONE_SCORES)}, or --policy vags --no-viewpoint on a run with stage 2")
     net = make_qnet(cfg.net, "gdnet")
 
     def act(params, key, state: EnvState):
         del key
         q = map_in_groups(lambda c, h: net.apply(params, c, h, False), (state.color, state.height),
                           cfg.net.forward_batch)  # (B, R, H, W)
-        return greedy(q)[0]
+        return direct_grasp(q, None, cfg.vags.direct_score, cfg.grasp.half_turn)[0]
 
     return act
 
