@@ -10,7 +10,7 @@ import pytest
 from vags_jax import config as C
 from vags_jax.policies import rate_gate
 from vags_jax.policies.catalog import vags_params
-from vags_jax.policies.decision import VagsNets, decide, direct_grasp
+from vags_jax.policies.decision import VagsNets, decide, direct_grasp, direct_value
 
 
 def _maps():
@@ -73,6 +73,13 @@ def test_the_q_mean_direct_grasp_is_the_argmax_of_gdnets_two_views_of_each_grasp
     assert np.asarray(direct_grasp(q, None, "q_mean", half_turn=True)[0])[0].tolist() == [0, 5, 5]
     with pytest.raises(ValueError, match="use vags.direct_score=q"):
         direct_grasp(q[:, :3], None, "q_mean")
+    # The value each planner maximized at its grasp (predict's "direct_value").
+    assert float(direct_value(q, None, grasp, "q_mean")[0]) == 3.0
+    assert float(direct_value(q, None, jnp.asarray([[0, 5, 5]]), "q")[0]) == 5.0
+    assert float(direct_value(q, None, jnp.asarray([[0, 5, 5]]), "q_mean")[0]) == 2.5  # (5 + 0) / 2
+    _, s = _maps()
+    assert float(direct_value(q, s, jnp.asarray([[1, 6, 1]]), "success")[0]) == pytest.approx(0.6)
+    assert float(direct_value(q, s, jnp.asarray([[1, 2, 2]]), "success")[0]) == pytest.approx(0.45)  # (0.9 + 0) / 2
     cfg = C.replace(C.preset("tiny"), **{"vags.direct_score": "q_mean"})
     assert cfg.vags.direct_score == "q_mean"
     nets = VagsNets(C.replace(cfg, **{"vags.gate": "q"}))

@@ -254,6 +254,17 @@ def direct_grasp(q_grasp: jax.Array, q_success: Optional[jax.Array], direct_scor
     return greedy(half_turn_mean(q_success, "direct_score", half_turn))[0], q_max
 
 
+def direct_value(q_grasp: jax.Array, q_success: Optional[jax.Array], grasp: jax.Array, direct_score: str = "q",
+                 half_turn: bool = False) -> jax.Array:
+    """(B,) float32 the value ``direct_grasp`` maximized at its grasp (B, 3): GDNet's Q ("q"), its
+    half-turn mean ("q_mean") or the success net's ("success"); q maps (B, R, H, W)."""
+    if direct_score == "success":
+        return value_at(half_turn_mean(q_success, "direct_score", half_turn), grasp)
+    if direct_score == "q_mean":
+        return value_at(half_turn_mean(q_grasp, "direct_score", half_turn), grasp)
+    return value_at(q_grasp, grasp)
+
+
 def decide(q_grasp: jax.Array, q_view: jax.Array, threshold, q_success: Optional[jax.Array] = None,
            gate: str = "q", calibration: Optional[jax.Array] = None, view_estimate: str = "vanet",
            viewpoint: str = "vanet", gate_table: Optional[jax.Array] = None,
@@ -428,7 +439,7 @@ class VagsNets:
 
 
 __all__ = ["Decision", "CloseView", "greedy", "value_at", "GATE_ESTIMATES", "CLOSE_SCORES", "DIRECT_SCORES",
-           "half_turn_mean", "direct_grasp",
+           "half_turn_mean", "direct_grasp", "direct_value",
            "success_estimate", "success_estimates",
            "gate_score", "update_calibration", "initial_calibration",
            "gate_threshold", "decide",

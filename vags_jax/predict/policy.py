@@ -301,14 +301,8 @@ def _global_program(params, depth, rgb, pose, *, cfg, cam, gdnet_only):
         if q_success is not None:
             out["p_direct"] = decision.success_estimate(q_success, d.grasp, cfg.vags.gate_estimate,
                                                         cfg.grasp.half_turn)
-        # The value the direct grasp maximized: GDNet's Q, its half-turn mean, or the success net's.
-        if cfg.vags.direct_score == "success":
-            out["direct_value"] = decision.success_estimate(q_success, d.grasp, "symmetric", cfg.grasp.half_turn)
-        elif cfg.vags.direct_score == "q_mean":
-            out["direct_value"] = decision.value_at(decision.half_turn_mean(q_grasp, "direct_score",
-                                                                            cfg.grasp.half_turn), d.grasp)
-        else:
-            out["direct_value"] = d.q_max
+        out["direct_value"] = decision.direct_value(q_grasp, q_success, d.grasp, cfg.vags.direct_score,
+                                                    cfg.grasp.half_turn)
     out["position"], out["yaw"] = grasp_pose(cfg, height, out["grasp"][:, 1:], out["grasp"][:, 0])
     return out
 
