@@ -1,4 +1,4 @@
-"""One on-disk cache for compiled programs, shared by train.py, eval.py and predict.
+"""One on-disk cache for compiled programs, shared by train.py, eval.py, predict and gate_measure.
 
 It holds JAX's persistent compilation cache (XLA executables, ``<dir>/jax``) and Warp's kernel
 cache (``<dir>/warp``, used by MJX impl "warp").  With it warm, a resumed run, the next stage's

@@ -288,6 +288,12 @@ def test_ggcnn_close_grasp_equals_the_eval_policy(run, scene, env, cfg):
     assert all(0 <= c < cfg.ggcnn.input_size for c in g["image_pixel"])
 
 
+def _same_grasp_yaw(a, b) -> bool:
+    """Two yaws of one parallel-jaw grasp: equal, or half a turn apart."""
+    d = (float(a) - float(b) + math.pi / 2) % math.pi - math.pi / 2
+    return abs(d) < 1e-5
+
+
 def test_success_scored_close_grasp_equals_the_eval_policy(run, scene, env, cfg):
     """vags.close_score=success (the gpu presets'): the close frame's grasp is the argmax of the
     success net's half-turn mean on the fused maps, as the eval policy's, and says so.  The
@@ -320,8 +326,8 @@ def test_success_scored_close_grasp_equals_the_eval_policy(run, scene, env, cfg)
     assert score[r_eval, row, col] == pytest.approx(score.max(), rel=1e-5, abs=1e-6)
     assert score[g["rotation"], row, col] == pytest.approx(score.max(), rel=1e-5, abs=1e-6)
     assert g["p_success"] == pytest.approx(float(score.max()), rel=1e-5, abs=1e-6)
-    if abs(score[g["rotation"], row, col] - np.sort(score.ravel())[-2]) > 1e-5:  # a unique best: the same grasp
-        assert np.float32(g["yaw"]) == attempt.yaw[0]
+    if abs(float(score.max()) - np.sort(score.ravel())[-3]) > 1e-5:  # one best grasp (its two rotations)
+        assert _same_grasp_yaw(g["yaw"], attempt.yaw[0])
     reach = 0.025 + cfg.workspace.pixel_size
     assert abs(g["position"][0] - TALL_XY[0]) > reach or abs(g["position"][1] - TALL_XY[1]) > reach, g
 
@@ -341,12 +347,18 @@ def test_success_planned_direct_grasp_equals_the_eval_policy(run, scene, env, cf
     attempt = jax.jit(lambda p, k, s: catalog.vags_plan(scfg)(p, k, env, s))(params, PLAN_KEY, state)
     assert g["view"] == "global" and "q" not in g and int(attempt.motions[0]) == 1
     np.testing.assert_array_equal(np.float32(g["position"]), attempt.position[0])
-    assert np.float32(g["yaw"]) == attempt.yaw[0]
     q_success = VagsNets(scfg).q_maps(pol.params, state.color, state.height)[2]
     action = jnp.asarray([[g["rotation"], *g["pixel"]]], jnp.int32)
     want = decision.success_estimate(q_success, action, "symmetric")[0]
     assert g["p_success"] == pytest.approx(float(want), rel=1e-5, abs=1e-6)
-    assert g["p_success"] == pytest.approx(float(jnp.max(decision.half_turn_mean(q_success))), rel=1e-5, abs=1e-6)
+    score = np.asarray(decision.half_turn_mean(q_success))[0]
+    assert g["p_success"] == pytest.approx(float(score.max()), rel=1e-5, abs=1e-6)
+    # The eval policy's grasp is at the same cell and at the maximum too; grasps that tie there to
+    # the last bits (flat cells, turned 90 degrees) may be rounded apart by the two programs.
+    r_eval = int(round(float(attempt.yaw[0]) / scfg.grasp.rotation_step)) % scfg.grasp.n_rotations
+    assert score[(r_eval, *g["pixel"])] == pytest.approx(float(score.max()), rel=1e-5, abs=1e-6)
+    if abs(float(score.max()) - np.sort(score.ravel())[-3]) > 1e-5:  # one best grasp (its two rotations)
+        assert _same_grasp_yaw(g["yaw"], attempt.yaw[0])
     reach = 0.025 + cfg.workspace.pixel_size
     assert abs(g["position"][0] - TALL_XY[0]) > reach or abs(g["position"][1] - TALL_XY[1]) > reach, g
 
