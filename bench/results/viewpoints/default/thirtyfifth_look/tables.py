@@ -3,7 +3,8 @@
 GDNet's argmax (`vags.direct_score=q`, r48 and r49) and at the argmax of its half-turn mean
 (`q_mean`, r48m and r49m), on the same networks and seeds; the two direct grasps paired on the
 q_mean tables' states (each state grasped both ways); each run against issue 23's goals
-(bench/viewpoint_goals.py); the grasp loop's physics at 512 and 1,024 worlds
+(bench/viewpoint_goals.py); the grasps after a move against the direct ones on each table's
+moving bins; the grasp loop's physics at 512 and 1,024 worlds
 (bench/physics_profile.py).  Run from anywhere:
 python bench/results/viewpoints/default/thirtyfifth_look/tables.py"""
 import json
@@ -67,6 +68,24 @@ def paired_table():
                   f"{100 * diff.mean():+.1f} ± {100 * se:.1f} |")
 
 
+def moving_bins_table():
+    """On each table's states in its moving bins: the grasp after a move against the direct one,
+    paired (issue 23's goal that close-view grasps be at least as good where the gate moves)."""
+    sys.path.insert(0, ROOT)
+    from vags_jax.policies import rate_gate
+    print("\n| table | moving bins | states | after a move % | direct % | paired difference (points) |")
+    print("|---|---|---:|---:|---:|---:|")
+    for run in ("r48", "r48m", "r49", "r49m"):
+        d = os.path.join(HERE, run)
+        table, st = rate_gate.from_dict(rate_gate.read(d)), rate_gate.read_states(d)
+        moving = rate_gate.moves_summary(table)["moving_bins"]
+        m = np.isin(np.searchsorted(np.asarray(table.edges), st["p_direct"], side="right"), moving)
+        moved, direct = st["moved_success"][m].astype(float), st["direct_success"][m].astype(float)
+        diff = moved - direct
+        print(f"| {run} | {moving} | {m.sum()} | {100 * moved.mean():.1f} | {100 * direct.mean():.1f} | "
+              f"{100 * diff.mean():+.1f} ± {100 * diff.std(ddof=1) / math.sqrt(len(diff)):.1f} |")
+
+
 def physics_table():
     print("\n| worlds | grasp loop ms (148 steps) | grasps/s | settle steps/s (our loop) | bare scan | bare, unrolled 4 | "
           "bare, unrolled 4, XLA graphs of size >= 1 |")
@@ -87,6 +106,7 @@ def main():
         sys.stdout.flush()
         subprocess.run([sys.executable, os.path.join(ROOT, "bench", "viewpoint_goals.py"), os.path.join(HERE, run)],
                        check=False)
+    moving_bins_table()
     physics_table()
     return 0
 
