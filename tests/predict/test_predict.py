@@ -381,6 +381,15 @@ def test_no_viewpoint_on_a_stage1_run_is_gdnet_alone(run, policy, scene, cfg, tm
     # The success net's direct grasp needs stages 2-3: said before any network loads.
     with pytest.raises(ValueError, match="has stage 1 alone: drop that setting"):
         predict.FramePolicy(s1, {"vags.direct_score": "success"}, no_viewpoint=True)
+    # GDNet alone on the mean of its two views of each grasp: that mean's maximum, and says so.
+    frame = _frame(image, cfg)
+    g = predict.FramePolicy(s1, {"vags.direct_score": "q_mean"}, no_viewpoint=True).decide(frame)["grasp"]
+    color, height = heightmap.heightmaps(jnp.asarray(frame.depth)[None], jnp.asarray(frame.rgb)[None],
+                                         jnp.asarray(frame.pose)[None], frame.camera, cfg.workspace)
+    q = make_qnet(cfg.net, "gdnet").apply(_qnet_variables(cfg, "gdnet", 0), color, height, False)
+    both = np.asarray(decision.half_turn_mean(q))[0]
+    assert "q" not in g and g["q_mean"] == pytest.approx(float(both.max()), rel=1e-5, abs=1e-6)
+    assert both[(g["rotation"], *g["pixel"])] == pytest.approx(float(both.max()), rel=1e-5, abs=1e-6)
 
 
 def test_the_command_line_on_files(run, scene, cfg, tmp_path, capsys):

@@ -24,7 +24,7 @@ from vags_jax.env import grasp_pose
 from vags_jax.ggcnn.planner import predict_grasp
 from vags_jax.perception import camera, heightmap
 from vags_jax.policies import decision, rate_gate
-from vags_jax.policies.catalog import vags_params
+from vags_jax.policies.catalog import GDNET_ALONE_SCORES, vags_params
 from vags_jax.policies.decision import VagsNets
 from vags_jax.stages import checkpoint, rundir
 from vags_jax.stages.ggcnn import ggcnn_dir
@@ -120,7 +120,7 @@ class FramePolicy:
         self.gdnet_only = no_viewpoint and not found
         self.ggcnn_camera = None
         if self.gdnet_only:
-            if cfg.vags.direct_score != "q":
+            if cfg.vags.direct_score not in GDNET_ALONE_SCORES:
                 raise ValueError(f"vags.direct_score={cfg.vags.direct_score} plans the direct grasps with the success "
                                  f"net, and {run_dir} has stage 1 alone: drop that setting, or train stages 2-3")
             _, variables, s = load_gdnet(run_dir, step)
@@ -287,9 +287,11 @@ def _global_program(params, depth, rgb, pose, *, cfg, cam, gdnet_only):
     nets = _nets(cfg)
     color, height = heightmap.heightmaps(depth[None], rgb[None], pose[None], cam, cfg.workspace)
     out = {"color": color, "height": height}
-    if gdnet_only:
-        grasp, q_max = decision.greedy(nets.gdnet_q(params["gdnet"])(color, height))
-        out.update(grasp=grasp, q_max=q_max, score=q_max, direct=jnp.ones((1,), bool), direct_value=q_max)
+    if gdnet_only:  # GDNet alone: its argmax, or that of its half-turn mean (vags.direct_score)
+        q_grasp = nets.gdnet_q(params["gdnet"])(color, height)
+        grasp, q_max = decision.direct_grasp(q_grasp, None, cfg.vags.direct_score, cfg.grasp.half_turn)
+        value = decision.direct_value(q_grasp, None, grasp, cfg.vags.direct_score, cfg.grasp.half_turn)
+        out.update(grasp=grasp, q_max=q_max, score=q_max, direct=jnp.ones((1,), bool), direct_value=value)
     else:
         q_grasp, q_view, q_success = nets.q_maps(params, color, height)
         d = decision.decide(q_grasp, q_view, params["threshold"], q_success, cfg.vags.gate, params.get("calibration"),
