@@ -6,7 +6,10 @@
 Reads ``DIR/seed<S>/eval_<policy>.json`` (or ``.json.gz``) and prints a Markdown table: overall success and
 clearing, the same pooled over groups 6-10 (successes over attempts, cleared rounds over
 rounds), motion number, viewpoint share, the viewpoint share at one object, picks per hour;
-then, per seed, the first policy's gain over the second on 6-10 objects.
+then, per seed, the first policy's gain over the second on 6-10 objects.  ``--goals``: then
+the issue's goals for the first policy against the second, each with its figure per seed and
+whether every seed meets it (the goal that grasps after a move be at least as good as direct
+ones where the gate moves needs the gate table's states: ``bench/gate_headroom.py``).
 """
 from __future__ import annotations
 
@@ -47,10 +50,51 @@ def row(report: dict) -> dict:
             "viewpoint_1": one[0]["viewpoint_rate"] if one else float("nan"), "picks_per_hour": o["picks_per_hour"]}
 
 
+# Issue 23's goals: (name, figure of a (VAGS row, ablation row) pair, "min" / "max" / "below", bound,
+# how the figure prints).  "min": at least the bound; "max": at most; "below": strictly below.
+GOALS = (
+    ("success at least 85 %", lambda v, a: 100 * v["success"], "min", 85.0, "{:.1f}"),
+    ("6-10 success at least 5 points above the ablation",
+     lambda v, a: 100 * (v["success_6_10"] - a["success_6_10"]), "min", 5.0, "{:+.1f}"),
+    ("6-10 clearing no worse than the ablation's",
+     lambda v, a: 100 * (v["clearing_6_10"] - a["clearing_6_10"]), "min", 0.0, "{:+.1f}"),
+    ("motion number below 1.35", lambda v, a: v["motion_number"], "below", 1.35, "{:.2f}"),
+    ("at one object, moves on at most 10 % of attempts", lambda v, a: 100 * v["viewpoint_1"], "max", 10.0, "{:.1f}"),
+)
+
+
+def goal_met(kind: str, value: float, bound: float) -> bool:
+    if kind == "min":
+        return value >= bound - 1e-9
+    if kind == "max":
+        return value <= bound + 1e-9
+    return value < bound
+
+
+def goals_table(rows: dict, a: str, b: str, seeds: list) -> list:
+    """Markdown lines: each goal's figure per seed (policy a against policy b) and whether
+    every seed with both reports meets it; a last line names the goals missed."""
+    pairs = [s for s in seeds if (a, s) in rows and (b, s) in rows]
+    lines = [f"| goal ({a} against {b}) | " + " | ".join(f"seed {s}" for s in pairs) + " | met on every seed |",
+             "|---|" + "---:|" * len(pairs) + "---|"]
+    missed = []
+    for name, figure, kind, bound, fmt in GOALS:
+        values = [figure(rows[a, s], rows[b, s]) for s in pairs]
+        cells = [fmt.format(v) + ("" if goal_met(kind, v, bound) else " (missed)") for v in values]
+        ok = all(goal_met(kind, v, bound) for v in values)
+        if not ok:
+            missed.append(name)
+        lines.append(f"| {name} | " + " | ".join(cells) + f" | {'yes' if ok else 'no'} |")
+    lines.append("\nall these goals met on every seed" if not missed else "\nmissed: " + "; ".join(missed))
+    return lines
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("dir", help="folder with seed<S>/eval_<policy>.json")
     p.add_argument("--policies", nargs="+", default=["vags", "vags-no-viewpoint"])
+    p.add_argument("--goals", action="store_true", help="also the issue's goals for the first policy against the "
+                   "second, per seed")
     args = p.parse_args(argv)
     seeds = sorted(int(re.sub(r"\D", "", os.path.basename(d))) for d in glob.glob(os.path.join(args.dir, "seed*")))
     rows = {}
@@ -79,6 +123,12 @@ def main(argv=None) -> int:
                 x, y = rows[a, s], rows[b, s]
                 print(f"| {s} | {100 * (x['success_6_10'] - y['success_6_10']):+.1f} | "
                       f"{100 * (x['clearing_6_10'] - y['clearing_6_10']):+.1f} | {100 * (x['clearing'] - y['clearing']):+.1f} |")
+        if args.goals:
+            print()
+            print("\n".join(goals_table(rows, a, b, seeds)))
+    elif args.goals:
+        print("--goals compares two policies: give --policies VAGS ABLATION", file=sys.stderr)
+        return 2
     return 0
 
 

@@ -37,3 +37,39 @@ def test_margins_per_seed_and_their_correlation_with_the_ablation(tmp_path, caps
     assert "lonely" not in out
     assert ("3 (folder, seed) pairs: correlation of the 6-10 margin with the ablation's success -1.00; "
             "slope -0.90") in out
+
+
+def _goal_report(success, g1_viewpoint, g6_successes, g6_clearing, motion):
+    """A report of groups 1 and 6 (100 attempts, 10 rounds each) with the figures the goals read."""
+    groups = [{"n_objects": 1, "attempts": 100, "successes": 90, "clearing_rate": 1.0, "rounds": 10,
+               "viewpoint_rate": g1_viewpoint},
+              {"n_objects": 6, "attempts": 100, "successes": g6_successes, "clearing_rate": g6_clearing, "rounds": 10}]
+    return {"overall": {"grasp_success_rate": success, "clearing_rate": 0.8, "motion_number": motion,
+                        "viewpoint_rate": 0.2, "picks_per_hour": 600.0}, "groups_metrics": groups}
+
+
+def test_goals_verdicts_per_seed_at_their_bounds(tmp_path, capsys):
+    import viewpoint_goals
+
+    # Seed 11 sits on every bound: success 85 %, +5 points on 6-10 (85 against 80 of 100), 6-10
+    # clearing equal, 10 % moves at one object (all met), motion number 1.35 (missed: below).
+    # Seed 12 misses the others by a little: 84.9 %, +4 points, clearing -10 points, 11 % moves.
+    run = tmp_path / "run"
+    for seed, vags, abl in ((11, _goal_report(0.85, 0.10, 85, 0.5, 1.35), _goal_report(0.80, 0.0, 80, 0.5, 1.1)),
+                            (12, _goal_report(0.849, 0.11, 84, 0.4, 1.30), _goal_report(0.80, 0.0, 80, 0.5, 1.1))):
+        _write(str(run / f"seed{seed}" / "eval_vags.json"), vags, gz=False)
+        _write(str(run / f"seed{seed}" / "eval_vags-no-viewpoint.json"), abl, gz=True)
+    assert viewpoint_goals.main([str(run), "--goals"]) == 0
+    out = capsys.readouterr().out
+    assert "| success at least 85 % | 85.0 | 84.9 (missed) | no |" in out
+    assert "| 6-10 success at least 5 points above the ablation | +5.0 | +4.0 (missed) | no |" in out
+    assert "| 6-10 clearing no worse than the ablation's | +0.0 | -10.0 (missed) | no |" in out
+    assert "| motion number below 1.35 | 1.35 (missed) | 1.30 | no |" in out
+    assert "| at one object, moves on at most 10 % of attempts | 10.0 | 11.0 (missed) | no |" in out
+    assert out.rstrip().endswith("at one object, moves on at most 10 % of attempts")
+    assert viewpoint_goals.main([str(run), "--goals", "--policies", "vags"]) == 2
+    good = tmp_path / "good"
+    _write(str(good / "seed11" / "eval_vags.json"), _goal_report(0.9, 0.05, 90, 0.6, 1.2), gz=False)
+    _write(str(good / "seed11" / "eval_vags-no-viewpoint.json"), _goal_report(0.8, 0.0, 80, 0.5, 1.1), gz=False)
+    assert viewpoint_goals.main([str(good), "--goals"]) == 0
+    assert capsys.readouterr().out.rstrip().endswith("all these goals met on every seed")
