@@ -9,9 +9,9 @@ is the default config).  For each variant, side by side in one process, after a 
 that compiles, it times (median of --repeats):
 
   * reset  : drop + settle (``cfg.scene.settle_time``) of 10 objects in every world;
-  * settle : 0.2 s more of physics on the settled scenes (objects resting, gripper parked),
+  * settle : --settle-seconds (0.2) more of physics on the settled scenes (objects resting, gripper parked),
              through ``Simulator.settle`` (parked bodies pinned, overflow checked every step);
-  * raw    : the same 0.2 s as a bare ``lax.scan`` of ``vmap(mjx.step)``, no pinning or checks
+  * raw    : the same seconds as a bare ``lax.scan`` of ``vmap(mjx.step)``, no pinning or checks
              (the difference to "settle" is our per-step bookkeeping);
   * grasp  : one grasp per world at the highest object's centre (``Simulator.grasp_at``).
 
@@ -47,7 +47,8 @@ DEFAULT_VARIANTS = [
 ]
 
 
-def profile(cfg: C.Config, n_worlds: int, n_objects: int, repeats: int, fast_raw: bool = True) -> dict:
+def profile(cfg: C.Config, n_worlds: int, n_objects: int, repeats: int, fast_raw: bool = True,
+            settle_s: float = 0.2) -> dict:
     sim = Simulator(cfg, build_scene(cfg))
     B = n_worlds
     key = jax.random.PRNGKey(0)
@@ -57,7 +58,6 @@ def profile(cfg: C.Config, n_worlds: int, n_objects: int, repeats: int, fast_raw
     t_first = time.perf_counter() - t0
     t_reset, state = timed(lambda: sim.reset(key, n), repeats=repeats)
 
-    settle_s = 0.2
     n_settle = int(round(settle_s / cfg.sim.timestep))
     t_settle, settled = timed(lambda s: sim.settle(s, settle_s), state, repeats=repeats)
 
@@ -91,7 +91,7 @@ def profile(cfg: C.Config, n_worlds: int, n_objects: int, repeats: int, fast_raw
 
     row = {
         "variant": None, "impl": cfg.sim.impl, "worlds": B, "objects": n_objects,
-        "pool": sim.P, "nv": sim.nv, "timestep": cfg.sim.timestep,
+        "pool": sim.P, "nv": sim.nv, "timestep": cfg.sim.timestep, "settle_seconds": settle_s,
         "reset_steps_per_s": B * sim.n_settle_reset / t_reset,
         "settle_steps_per_s": B * n_settle / t_settle,
         "raw_steps_per_s": B * n_settle / t_raw,
@@ -130,8 +130,13 @@ def main(argv=None):
     p.add_argument("--repeats", type=int, default=3)
     p.add_argument("--set", nargs="*", default=[], help="overrides applied to every variant")
     p.add_argument("--no-fast-raw", action="store_true", help="skip the unrolled raw loops")
+    p.add_argument("--settle-seconds", type=float, default=0.2,
+                   help="simulated seconds of the settle and raw loops (0.2 s, 33 steps at 6 ms, is too short to "
+                        "time at a few hundred worlds: give 1 or more there)")
     p.add_argument("--out", default=None, help="append the rows as JSON lines here")
     args = p.parse_args(argv)
+    if not args.settle_seconds > 0:
+        p.error(f"--settle-seconds must be > 0, got {args.settle_seconds}")
     variants = args.variant or DEFAULT_VARIANTS
     print(f"device: {jax.devices()[0].device_kind} ({jax.default_backend()}), jax {jax.__version__}, "
           f"{platform.node()}", flush=True)
@@ -143,7 +148,7 @@ def main(argv=None):
                 cfg = C.replace(C.preset(args.config), **C.parse_overrides(args.set + overrides),
                                 **{"sim.impl": args.impl})
                 t = time.perf_counter()
-                row = profile(cfg, b, args.objects, args.repeats, not args.no_fast_raw)
+                row = profile(cfg, b, args.objects, args.repeats, not args.no_fast_raw, args.settle_seconds)
             except Exception as e:  # report and go on with the other variants
                 print(f"{name} worlds={b}: FAILED {type(e).__name__}: {str(e)[:300]}", flush=True)
                 continue
