@@ -11,7 +11,7 @@ RES=/root/res/headroom C=/root/cc
 source bench/driver_lib.sh
 start_log
 for s in 50 51; do
-  [ -f /root/runs/r$s/gate.json ] && run headroom_r$s timeout 200 python bench/gate_headroom.py \
+  mkdir -p $RES/r$s; [ -f /root/runs/r$s/gate.json ] && run headroom_r$s timeout 200 python bench/gate_headroom.py \
     --run /root/runs/r$s --cache-dir $C --out $RES/r$s/headroom.json
 done
 echo "done $(date +%T)" >> $RES/machine_log.txt
