@@ -73,3 +73,27 @@ def test_goals_verdicts_per_seed_at_their_bounds(tmp_path, capsys):
     _write(str(good / "seed11" / "eval_vags-no-viewpoint.json"), _goal_report(0.8, 0.0, 80, 0.5, 1.1), gz=False)
     assert viewpoint_goals.main([str(good), "--goals"]) == 0
     assert capsys.readouterr().out.rstrip().endswith("all these goals met on every seed")
+
+
+def test_goals_against_an_ablation_that_played_another_gdnet_are_not_measured(tmp_path, capsys):
+    import viewpoint_goals
+
+    # Seed 11: both reports played the same GDNet; seed 12: the ablation another one (as when it
+    # is evaluated on a copy of the run whose gate table picked the other stage's GDNet).
+    run = tmp_path / "run"
+    for seed, abl_gdnet in ((11, "stage2 step 80"), (12, "stage3 step 80")):
+        vags = {**_goal_report(0.9, 0.05, 90, 0.6, 1.2), "gdnet": "stage2 step 80"}
+        abl = {**_goal_report(0.8, 0.0, 80, 0.7, 1.1), "gdnet": abl_gdnet}
+        _write(str(run / f"seed{seed}" / "eval_vags.json"), vags, gz=False)
+        _write(str(run / f"seed{seed}" / "eval_vags-no-viewpoint.json"), abl, gz=False)
+    assert viewpoint_goals.main([str(run), "--goals"]) == 0
+    out = capsys.readouterr().out
+    assert "| 12 (other GDNet) | +10.0 |" in out and "| 11 | +10.0 |" in out
+    assert "| 6-10 success at least 5 points above the ablation | +10.0 | +10.0 (other GDNet) | not measured |" in out
+    # Clearing is missed on seed 11 (its own ablation), so that goal is missed, not unmeasured.
+    assert "| 6-10 clearing no worse than the ablation's | -10.0 (missed) | -10.0 (other GDNet) | no |" in out
+    assert "| motion number below 1.35 | 1.20 | 1.20 | yes |" in out
+    assert ("seed 12: vags played GDNet 'stage2 step 80', vags-no-viewpoint 'stage3 step 80': not its own "
+            "ablation") in out
+    assert "not measured on every seed: 6-10 success at least 5 points above the ablation" in out
+    assert out.rstrip().endswith("missed: 6-10 clearing no worse than the ablation's")
