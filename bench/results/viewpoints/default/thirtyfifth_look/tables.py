@@ -23,23 +23,23 @@ SEEDS = (11, 12, 13)
 GROUPS = (("all", 1, 10), ("1", 1, 1), ("2-5", 2, 5), ("6-10", 6, 10))
 
 
-def timing_table():
+def timing_table(here=HERE, runs=RUNS):
     from pipeline_times import table
-    print(table(HERE, RUNS))
+    print(table(here, runs))
 
 
-def benchmark_table():
+def benchmark_table(here=HERE, runs=RUNS):
     """Per training and policy: q and q_mean side by side, by seed, and the difference."""
     from viewpoint_goals import read_report, row
     print("\n| run | policy | seed | success: q | q_mean | q_mean - q | 6-10 success: q | q_mean | 6-10 clearing: q | "
           "q_mean | motion number: q | q_mean | at 1 object, viewpoint %: q | q_mean |")
     print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
-    for run, _ in RUNS:
+    for run, _ in runs:
         for pol in ("vags-no-viewpoint", "vags"):
             diffs = []
             for seed in SEEDS:
-                a = row(read_report(os.path.join(HERE, run, f"seed{seed}", f"eval_{pol}.json")))
-                b = row(read_report(os.path.join(HERE, f"{run}m", f"seed{seed}", f"eval_{pol}.json")))
+                a = row(read_report(os.path.join(here, run, f"seed{seed}", f"eval_{pol}.json")))
+                b = row(read_report(os.path.join(here, f"{run}m", f"seed{seed}", f"eval_{pol}.json")))
                 diffs.append(b["success"] - a["success"])
                 print(f"| {run} | {pol} | {seed} | {100 * a['success']:.1f} | {100 * b['success']:.1f} | "
                       f"{100 * diffs[-1]:+.1f} | {100 * a['success_6_10']:.1f} | {100 * b['success_6_10']:.1f} | "
@@ -48,14 +48,14 @@ def benchmark_table():
             print(f"| {run} | {pol} | mean | | | {100 * sum(diffs) / len(diffs):+.1f} | | | | | | | | |")
 
 
-def paired_table():
+def paired_table(here=HERE, runs=RUNS):
     """The q_mean tables' states: the direct grasp at q_mean's argmax (`direct_success`) and at
     GDNet's plain argmax (`gdnet_success`) from each state, with the paired difference's
     standard error."""
     print("\n| table | GDNets | objects | states | q % | q_mean % | q_mean - q (points) |")
     print("|---|---|---|---:|---:|---:|---:|")
-    for run, _ in RUNS:
-        d = os.path.join(HERE, f"{run}m")
+    for run, _ in runs:
+        d = os.path.join(here, f"{run}m")
         s = np.load(os.path.join(d, "gate_states.npz"))
         with open(os.path.join(d, "gate.json")) as f:
             gdnet = json.load(f)["gdnet"]
@@ -68,15 +68,15 @@ def paired_table():
                   f"{100 * diff.mean():+.1f} ± {100 * se:.1f} |")
 
 
-def moving_bins_table():
+def moving_bins_table(here=HERE, runs=RUNS):
     """On each table's states in its moving bins: the grasp after a move against the direct one,
     paired (issue 23's goal that close-view grasps be at least as good where the gate moves)."""
     sys.path.insert(0, ROOT)
     from vags_jax.policies import rate_gate
     print("\n| table | moving bins | states | after a move % | direct % | paired difference (points) |")
     print("|---|---|---:|---:|---:|---:|")
-    for run in ("r48", "r48m", "r49", "r49m"):
-        d = os.path.join(HERE, run)
+    for run in [r + m for r, _ in runs for m in ("", "m")]:
+        d = os.path.join(here, run)
         table, st = rate_gate.from_dict(rate_gate.read(d)), rate_gate.read_states(d)
         moving = rate_gate.moves_summary(table)["moving_bins"]
         m = np.isin(np.searchsorted(np.asarray(table.edges), st["p_direct"], side="right"), moving)
@@ -97,15 +97,20 @@ def physics_table():
                   f"{r['raw_unroll4_steps_per_s']:,.0f} | {r['raw_unroll4_graph1_steps_per_s']:,.0f} |")
 
 
+def goals_tables(here=HERE, runs=RUNS):
+    """Each run against issue 23's goals (bench/viewpoint_goals.py --goals)."""
+    for run in [r + m for r, _ in runs for m in ("", "m")]:
+        print(f"\n{run}:")
+        sys.stdout.flush()
+        subprocess.run([sys.executable, os.path.join(ROOT, "bench", "viewpoint_goals.py"), os.path.join(here, run),
+                        "--goals"], check=False)
+
+
 def main():
     timing_table()
     benchmark_table()
     paired_table()
-    for run in ("r48", "r48m", "r49", "r49m"):
-        print(f"\n{run}:")
-        sys.stdout.flush()
-        subprocess.run([sys.executable, os.path.join(ROOT, "bench", "viewpoint_goals.py"), os.path.join(HERE, run),
-                        "--goals"], check=False)
+    goals_tables()
     moving_bins_table()
     physics_table()
     return 0
