@@ -157,8 +157,10 @@ def _evaluate(args, plan, t_main: float, argv) -> int:
         f"devices={jax.devices()}")
     if policy == "vags":
         log(planners.describe(cfg, args.no_viewpoint))
-        note = planners.ablation_note(cfg) if args.no_viewpoint else None
-        if note:
+        notes = [planners.ablation_note(cfg), planners.pick_note(
+            cfg, networks.gate_direct_score if networks is not None and networks.gate_table is not None else None,
+            networks.gdnet_source if networks is not None else "")] if args.no_viewpoint else []
+        for note in filter(None, notes):
             log(note)
     t_inputs = time.perf_counter()
     ev = E.Evaluator(cfg)

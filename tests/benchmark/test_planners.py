@@ -39,3 +39,13 @@ def test_ggcnn_after_a_move_is_named():
 def test_every_setting_is_described(direct, close):
     line = planners.describe(_cfg(direct_score=direct, close_score=close), no_viewpoint=False)
     assert f"vags.direct_score={direct!r}" in line and f"vags.close_score={close!r}" in line
+
+
+def test_pick_note_where_the_gdnet_was_picked_by_a_table_of_another_direct_score():
+    cfg = _cfg(direct_score="q_mean")
+    note = planners.pick_note(cfg, "q", "stage2 step 80")
+    assert note is not None and "GDNet stage2 step 80" in note and "vags.direct_score='q'" in note
+    assert "--direct-score q_mean" in note
+    assert planners.pick_note(cfg, "q_mean", "stage2 step 80") is None  # the table's own score
+    assert planners.pick_note(cfg, None, "stage3 step 80") is None  # no table: stage 3's GDNet, no pick
+    assert planners.pick_note(C.replace(cfg, **{"vags.stage3_gdnet_pick": "last"}), "q", "stage3 step 80") is None

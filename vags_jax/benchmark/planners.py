@@ -45,3 +45,18 @@ def ablation_note(cfg: Config) -> Optional[str]:
             f"viewpoint. --set vags.direct_score={v.close_score} on both plans them by one score (under the rate "
             f"gate VAGS then needs a table measured with python -m vags_jax.stages.gate_measure --run RUN "
             f"--direct-score {v.close_score}); docs/method.md, \"What plans the direct grasp\"")
+
+
+def pick_note(cfg: Config, table_direct_score: Optional[str], gdnet_source: str) -> Optional[str]:
+    """For ``--no-viewpoint`` on a run whose gate table picked its GDNet
+    (``vags.stage3_gdnet_pick="rate"``; ``table_direct_score`` None where no table was loaded):
+    a note where that table was measured with another ``vags.direct_score`` than this ablation
+    plans with.  VAGS under this config plays the GDNet of a table measured with its own score,
+    which may be the other stage's, and then this is not VAGS's own ablation; None otherwise."""
+    now = cfg.vags.direct_score
+    if cfg.vags.stage3_gdnet_pick != "rate" or table_direct_score is None or table_direct_score == now:
+        return None
+    return (f"note: this ablation plays GDNet {gdnet_source}, picked by RUN/gate.json, which was measured with "
+            f"vags.direct_score={table_direct_score!r}. VAGS with vags.direct_score={now!r} needs a table measured "
+            f"with it (python -m vags_jax.stages.gate_measure --run RUN --direct-score {now}), which may pick the "
+            f"other stage's GDNet: evaluate this ablation on the run with that table, so that both play one GDNet")
