@@ -111,8 +111,8 @@ def goals_table(rows: dict, a: str, b: str, seeds: list) -> list:
     for s in foreign:
         by_pair.setdefault((rows[a, s]["gdnet"], rows[b, s]["gdnet"]), []).append(str(s))
     for (ga, gb), ss in by_pair.items():
-        lines.append(f"\nseed{'s' if len(ss) > 1 else ''} {', '.join(ss)}: {a} played GDNet {ga!r}, {b} {gb!r}: not its own ablation "
-                     f"(evaluate {b} on the run {a} played)")
+        lines.append(f"\nseed{'s' if len(ss) > 1 else ''} {', '.join(ss)}: {a} played GDNet {ga!r}, {b} {gb!r}: "
+                     f"not its own ablation (evaluate {b} on the run {a} played)")
     if unmeasured:
         lines.append("\nnot measured on every seed: " + "; ".join(unmeasured))
     lines.append("\nall these goals met on every seed" if not missed and not unmeasured else
