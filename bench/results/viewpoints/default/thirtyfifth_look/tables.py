@@ -68,14 +68,14 @@ def paired_table(here=HERE, runs=RUNS):
                   f"{100 * diff.mean():+.1f} ± {100 * se:.1f} |")
 
 
-def moving_bins_table(here=HERE, runs=RUNS):
+def moving_bins_table(here=HERE, runs=RUNS, suffixes=("", "m")):
     """On each table's states in its moving bins: the grasp after a move against the direct one,
     paired (issue 23's goal that close-view grasps be at least as good where the gate moves)."""
     sys.path.insert(0, ROOT)
     from vags_jax.policies import rate_gate
     print("\n| table | moving bins | states | after a move % | direct % | paired difference (points) |")
     print("|---|---|---:|---:|---:|---:|")
-    for run in [r + m for r, _ in runs for m in ("", "m")]:
+    for run in [r + m for r, _ in runs for m in suffixes]:
         d = os.path.join(here, run)
         table, st = rate_gate.from_dict(rate_gate.read(d)), rate_gate.read_states(d)
         moving = rate_gate.moves_summary(table)["moving_bins"]
@@ -97,9 +97,9 @@ def physics_table():
                   f"{r['raw_unroll4_steps_per_s']:,.0f} | {r['raw_unroll4_graph1_steps_per_s']:,.0f} |")
 
 
-def goals_tables(here=HERE, runs=RUNS):
+def goals_tables(here=HERE, runs=RUNS, suffixes=("", "m")):
     """Each run against issue 23's goals (bench/viewpoint_goals.py --goals)."""
-    for run in [r + m for r, _ in runs for m in ("", "m")]:
+    for run in [r + m for r, _ in runs for m in suffixes]:
         print(f"\n{run}:")
         sys.stdout.flush()
         subprocess.run([sys.executable, os.path.join(ROOT, "bench", "viewpoint_goals.py"), os.path.join(here, run),

@@ -46,10 +46,10 @@ def rule():
           f"0.5 points on both trainings: {vags_ok}.  The rule is {'met' if met else 'not met'}.")
 
 
-def headroom_tables():
+def headroom_tables(here=HERE, runs=RUNS):
     from gate_headroom import table
-    for run, _ in RUNS:
-        path = os.path.join(HERE, "headroom", run, "headroom.json")
+    for run, _ in runs:
+        path = os.path.join(here, "headroom", run, "headroom.json")
         if not os.path.exists(path):
             print(f"\nno headroom table for {run}")
             continue
