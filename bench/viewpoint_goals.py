@@ -6,7 +6,9 @@
 Reads ``DIR/seed<S>/eval_<policy>.json`` (or ``.json.gz``) and prints a Markdown table: overall success and
 clearing, the same pooled over groups 6-10 (successes over attempts, cleared rounds over
 rounds), motion number, viewpoint share, the viewpoint share at one object, picks per hour;
-then, per seed, the first policy's gain over the second on 6-10 objects.  ``--goals``: then
+then, per seed, the first policy's gain over the second on 6-10 objects, and where the reports hold
+per-round outcomes of the same scenes, the same gains paired round by round with their standard
+errors (how far a seed's figure is from noise).  ``--goals``: then
 the issue's goals for the first policy against the second, each with its figure per seed and
 whether every seed meets it (the goal that grasps after a move be at least as good as direct
 ones where the gate moves needs the gate table's states: ``bench/gate_headroom.py``).
@@ -54,6 +56,40 @@ def row(report: dict) -> dict:
             "clearing_6_10": c610, "motion_number": o["motion_number"], "viewpoint": o["viewpoint_rate"],
             "viewpoint_1": one[0]["viewpoint_rate"] if one else float("nan"), "picks_per_hour": o["picks_per_hour"],
             "gdnet": report.get("gdnet")}
+
+
+def paired_rounds(x: dict, y: dict, lo: int, hi: int):
+    """Report ``x`` against report ``y`` round by round over the groups of lo..hi objects, on the
+    same scenes: (grasp success x - y, its standard error, clearing x - y, its standard error,
+    rounds), or None where a report lacks per-round outcomes, the scenes differ (the reports'
+    ``scenes`` digests) or a group's round counts differ.  Clearing is the mean of the paired
+    per-round differences; success is a ratio (successes / attempts), so each round enters
+    through its deviation from the pooled ratio, scaled by the mean attempts per round (the
+    delta method), and the standard error is that of the mean paired deviation."""
+    import numpy as np
+
+    if "outcomes" not in x or "outcomes" not in y or x.get("scenes") != y.get("scenes"):
+        return None
+    cols = {"x": [], "y": []}
+    for n in range(lo, hi + 1):
+        ox, oy = x["outcomes"].get(str(n)), y["outcomes"].get(str(n))
+        if ox is None or oy is None:
+            continue
+        if len(ox["attempts"]) != len(oy["attempts"]):
+            return None
+        for side, o in (("x", ox), ("y", oy)):
+            cols[side].append(np.stack([np.asarray(o[k], float) for k in ("attempts", "successes", "n_objects")]))
+    if not cols["x"]:
+        return None
+    (ax, sx, nx), (ay, sy, ny) = np.concatenate(cols["x"], 1), np.concatenate(cols["y"], 1)
+    rounds = ax.size
+    if rounds < 2:
+        return None
+    px, py = sx.sum() / ax.sum(), sy.sum() / ay.sum()
+    d = (sx - px * ax) / ax.mean() - (sy - py * ay) / ay.mean()
+    c = (sx >= nx).astype(float) - (sy >= ny).astype(float)
+    se = lambda v: float(v.std(ddof=1) / np.sqrt(rounds))  # noqa: E731
+    return float(px - py), se(d), float(c.mean()), se(c), rounds
 
 
 # Issue 23's goals: (name, figure of a (VAGS row, ablation row) pair, "min" / "max" / "below", bound,
@@ -128,12 +164,12 @@ def main(argv=None) -> int:
                    "second, per seed")
     args = p.parse_args(argv)
     seeds = sorted(int(re.sub(r"\D", "", os.path.basename(d))) for d in glob.glob(os.path.join(args.dir, "seed*")))
-    rows = {}
+    rows, reports = {}, {}
     for pol in args.policies:
         for s in seeds:
             report = read_report(os.path.join(args.dir, f"seed{s}", f"eval_{pol}.json"))
             if report is not None:
-                rows[pol, s] = row(report)
+                rows[pol, s], reports[pol, s] = row(report), report
     if not rows:
         print(f"no reports under {args.dir}/seed*/ for {args.policies}", file=sys.stderr)
         return 2
@@ -155,6 +191,15 @@ def main(argv=None) -> int:
                 mark = " (other GDNet)" if other_gdnet(x, y) else ""
                 print(f"| {s}{mark} | {100 * (x['success_6_10'] - y['success_6_10']):+.1f} | "
                       f"{100 * (x['clearing_6_10'] - y['clearing_6_10']):+.1f} | {100 * (x['clearing'] - y['clearing']):+.1f} |")
+        paired = {s: paired_rounds(reports[a, s], reports[b, s], 6, 10) for s in seeds
+                  if (a, s) in reports and (b, s) in reports}
+        if any(v is not None for v in paired.values()):
+            print(f"\n| seed | rounds | 6-10 success: {a} - {b} | 6-10 clearing |")
+            print("|---:|---:|---:|---:|")
+            for s, v in paired.items():
+                print(f"| {s} | not paired (no per-round outcomes or other scenes) | | |" if v is None else
+                      f"| {s} | {v[4]} | {100 * v[0]:+.1f} ± {100 * v[1]:.1f} | {100 * v[2]:+.1f} ± {100 * v[3]:.1f} |")
+            print("(paired round by round on the same scenes; ± one standard error of the difference)")
         if args.goals:
             print()
             print("\n".join(goals_table(rows, a, b, seeds)))

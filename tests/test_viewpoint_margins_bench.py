@@ -97,3 +97,40 @@ def test_goals_against_an_ablation_that_played_another_gdnet_are_not_measured(tm
             "ablation") in out
     assert "not measured on every seed: 6-10 success at least 5 points above the ablation" in out
     assert out.rstrip().endswith("missed: 6-10 clearing no worse than the ablation's")
+
+
+def _round_report(attempts, successes, scenes="s1"):
+    """A report of one 6-object group whose rounds are given (for the paired table)."""
+    rep = _goal_report(0.9, 0.05, sum(successes), 0.5, 1.2)
+    rep["scenes"] = scenes
+    rep["outcomes"] = {"6": {"attempts": attempts, "successes": successes, "n_objects": [6] * len(attempts)}}
+    return rep
+
+
+def test_gains_paired_round_by_round_with_their_standard_errors(tmp_path, capsys):
+    import viewpoint_goals
+
+    # Four rounds of 6 objects.  VAGS: attempts 6, 6, 8, 8 and successes 6, 6, 6, 5 (23 of 28;
+    # cleared 1, 1, 1, 0); the ablation: 6, 7, 8, 9 and 6, 5, 6, 6 (23 of 30; cleared 1, 0, 1, 1).
+    # Clearing: paired differences 0, +1, 0, -1: mean 0, variance 2/3, standard error
+    # sqrt(2/3) / 2 = 0.408.  Success: 23/28 - 23/30 = 0.0548; each round's deviation from its
+    # policy's pooled ratio over the mean attempts (7 and 7.5): VAGS +0.1531, +0.1531, -0.0816,
+    # -0.2245; the ablation +0.1867, -0.0489, -0.0178, -0.1200; differences -0.0336, +0.2020,
+    # -0.0639, -0.1045 (mean 0), sum of squares 0.05691, variance 0.01897, standard error
+    # 0.1377 / 2 = 0.0689.
+    run = tmp_path / "run"
+    _write(str(run / "seed11" / "eval_vags.json"), _round_report([6, 6, 8, 8], [6, 6, 6, 5]), gz=False)
+    _write(str(run / "seed11" / "eval_vags-no-viewpoint.json"), _round_report([6, 7, 8, 9], [6, 5, 6, 6]), gz=True)
+    # Seed 12: the ablation played other scenes, so its rounds are not paired.
+    _write(str(run / "seed12" / "eval_vags.json"), _round_report([6, 6], [6, 6]), gz=False)
+    _write(str(run / "seed12" / "eval_vags-no-viewpoint.json"), _round_report([6, 6], [6, 6], scenes="s2"), gz=False)
+    assert viewpoint_goals.main([str(run)]) == 0
+    out = capsys.readouterr().out
+    assert "| 11 | 4 | +5.5 ± 6.9 | +0.0 ± 40.8 |" in out
+    assert "| 12 | not paired (no per-round outcomes or other scenes) | | |" in out
+    # Reports without per-round outcomes (as the other tests' hand-made ones) print no such table.
+    bare = tmp_path / "bare"
+    _write(str(bare / "seed11" / "eval_vags.json"), _goal_report(0.9, 0.05, 90, 0.6, 1.2), gz=False)
+    _write(str(bare / "seed11" / "eval_vags-no-viewpoint.json"), _goal_report(0.8, 0.0, 80, 0.5, 1.1), gz=False)
+    assert viewpoint_goals.main([str(bare)]) == 0
+    assert "paired round by round" not in capsys.readouterr().out
