@@ -58,6 +58,9 @@ def test_metrics_hand_computed():
     assert "objects_lost_after_move" not in v  # outcomes that do not record it
     lam = M.summarize(_outcomes(viewpoints=[0, 1, 0], lost_after_move=[0, 1, 0]))
     assert lam["objects_lost"] == 1 and lam["objects_lost_after_move"] == 1
+    # Round 2's lost object had already spilled from the pile before its first attempt.
+    assert "objects_lost_at_start" not in v
+    assert M.summarize(_outcomes(lost_at_start=[0, 1, 0]))["objects_lost_at_start"] == 1
     assert "success_after_move" not in lam and "first_attempt_success" not in lam  # not recorded
     # Round 3 moved twice and grasped once after a move; a round without attempts has no first.
     four = dict(n_objects=[2, 2, 3, 1], attempts=[2, 5, 4, 0], successes=[2, 1, 3, 0], motions=[2, 5, 6, 0],
@@ -284,6 +287,8 @@ def test_tiny_heuristic_evaluation_is_sane(tiny_eval):
         left = np.asarray(out["remaining"])
         assert ((att == 2 * k + 1) | (left == 0)).all()
         assert (np.asarray(out["lost_after_move"]) == 0).all()  # the heuristic never moves the camera
+        start = np.asarray(out["lost_at_start"])  # a part of the objects lost
+        assert ((start >= 0) & (start <= n - succ - left)).all()
         assert (np.asarray(out["successes_after_move"]) == 0).all()
         first = np.asarray(out["first_success"])
         assert (succ[first] >= 1).all()

@@ -104,7 +104,9 @@ class RoundOutcomes:
     a viewpoint move.
     successes_after_move: the part of ``successes`` made by attempts after a viewpoint move.
     first_success: bool, the round's first grasp attempt succeeded (False in a round without one).
-    The last three are None in outcomes recorded before they existed.
+    lost_at_start: the part of the objects lost (``lost``) already gone when the round's first
+    attempt began: drawn, but outside the workspace or through the table after the pile's drop.
+    The last four are None in outcomes recorded before they existed.
     """
 
     n_objects: Any
@@ -123,6 +125,7 @@ class RoundOutcomes:
     lost_after_move: Any = None
     successes_after_move: Any = None
     first_success: Any = None
+    lost_at_start: Any = None
 
     @property
     def cleared(self) -> np.ndarray:
@@ -188,6 +191,7 @@ def summarize(out: RoundOutcomes, time_model: MotionTimeModel = MotionTimeModel(
         "buffer_overflows": int(np.sum(out.overflow)),
         **({} if out.pushes is None else {"pushes": int(np.sum(out.pushes))}),
         **({} if out.lost_after_move is None else {"objects_lost_after_move": int(np.sum(out.lost_after_move))}),
+        **({} if out.lost_at_start is None else {"objects_lost_at_start": int(np.sum(out.lost_at_start))}),
         **_by_branch(out, attempts, successes),
     }
 

@@ -178,6 +178,8 @@ class Evaluator:
                           memory=memory)
 
         zi = jnp.zeros((B,), jnp.int32)
+        # Objects drawn but gone before the first attempt (spilled from the pile's drop).
+        lost_at_start = (s0.sim.n_objects - s0.sim.active.sum(axis=1)).astype(jnp.int32)
         c0 = _Carry(env=s0, done=env.round_over(s0, extra) | s0.sim.error,
                     return_travel=jnp.zeros((B,), jnp.float32), on_object=zi, viewpoints=zi, lost_after_move=zi,
                     successes_after_move=zi, first_success=jnp.zeros((B,), bool), pushes=zi,
@@ -190,7 +192,7 @@ class Evaluator:
             travel=s.travel, return_travel=c.return_travel, remaining=env.n_remaining(s), on_object=c.on_object,
             viewpoints=c.viewpoints, error=s.sim.error, overflow=s.sim.overflow, scores=c.scores,
             pushes=c.pushes if pushes else None, lost_after_move=c.lost_after_move,
-            successes_after_move=c.successes_after_move, first_success=c.first_success)
+            successes_after_move=c.successes_after_move, first_success=c.first_success, lost_at_start=lost_at_start)
         return out
 
     def run_group(self, policy: Policy, key, n_objects: int, rounds: int) -> RoundOutcomes:
