@@ -106,7 +106,9 @@ class RoundOutcomes:
     first_success: bool, the round's first grasp attempt succeeded (False in a round without one).
     lost_at_start: the part of the objects lost (``lost``) already gone when the round's first
     attempt began: drawn, but outside the workspace or through the table after the pile's drop.
-    The last four are None in outcomes recorded before they existed.
+    redraws: how many times the round's scene was drawn again because its drop spilled an
+    object (``benchmark.redraw_spilled``).
+    The last five are None in outcomes recorded before they existed.
     """
 
     n_objects: Any
@@ -126,6 +128,7 @@ class RoundOutcomes:
     successes_after_move: Any = None
     first_success: Any = None
     lost_at_start: Any = None
+    redraws: Any = None
 
     @property
     def cleared(self) -> np.ndarray:
@@ -192,6 +195,7 @@ def summarize(out: RoundOutcomes, time_model: MotionTimeModel = MotionTimeModel(
         **({} if out.pushes is None else {"pushes": int(np.sum(out.pushes))}),
         **({} if out.lost_after_move is None else {"objects_lost_after_move": int(np.sum(out.lost_after_move))}),
         **({} if out.lost_at_start is None else {"objects_lost_at_start": int(np.sum(out.lost_at_start))}),
+        **({} if out.redraws is None else {"scenes_redrawn": int(np.sum(np.asarray(out.redraws) > 0))}),
         **_by_branch(out, attempts, successes),
     }
 

@@ -111,6 +111,7 @@ class Evaluator:
         # The environment's one compiled reset (VagsEnv.reset's too): shared with training.
         self._reset = self.env.reset_unchecked
         self._reset_worlds = self.env.reset_worlds
+        self._where_worlds = jax.jit(where_worlds)
         self._start = np.asarray(cfg.camera.global_position, np.float32)
 
     # Long (one reason): the while loop's body and its bookkeeping share one closure.
@@ -203,8 +204,10 @@ class Evaluator:
             key = jax.random.key_data(key)
         k_reset, k_loop = jax.random.split(key)
         self.env.prepare(rounds)
-        s0 = self._reset(k_reset, jnp.full((rounds,), n_objects, jnp.int32))  # errors: counted, not raised
-        out = self.play(policy, k_loop, s0)
+        k_sim, k_obs = jax.random.split(k_reset)  # VagsEnv.reset_unchecked's keys
+        s0, redraws = self.reset_scenes(jax.random.split(k_sim, rounds), jnp.full((rounds,), n_objects, jnp.int32),
+                                        k_obs)  # errors: counted, not raised
+        out = dataclasses.replace(self.play(policy, k_loop, s0), redraws=redraws)
         _warn_failures(out, f"{rounds} rounds with {n_objects} objects")
         return out
 
@@ -217,16 +220,17 @@ class Evaluator:
     def run_groups_and_scenes(self, policy: Policy, seed: int, groups: Sequence[int], rounds: int):
         """``run_groups`` -> (its outcomes, ``scenes_digest`` of the scenes the policy played)."""
         groups = check_groups(groups, self.cfg, rounds)
-        s0, k_loop = self.reset_groups(seed, groups, rounds, rounds)
+        s0, k_loop, redraws = self.reset_groups(seed, groups, rounds, rounds, with_redraws=True)
         digest = scenes_digest(s0)
-        out = self.play(policy, k_loop, s0)
+        out = dataclasses.replace(self.play(policy, k_loop, s0), redraws=redraws)
         _warn_failures(out, f"{s0.n_worlds} rounds")
         return [jax.tree.map(lambda x: x[i * rounds:(i + 1) * rounds], out) for i in range(len(groups))], digest
 
-    def reset_groups(self, seed: int, groups: Sequence[int], rounds: int, first: int):
+    def reset_groups(self, seed: int, groups: Sequence[int], rounds: int, first: int, with_redraws: bool = False):
         """The first ``first`` of the ``rounds`` scenes of each group (``run_groups``'s scenes:
         group k's per-round keys come from ``fold_in(PRNGKey(seed), k)``), in one batch ->
-        (EnvState of len(groups) * first worlds, the key of the rounds' play)."""
+        (EnvState of len(groups) * first worlds, the key of the rounds' play), and with
+        ``with_redraws`` the (B,) redraws of ``reset_scenes`` last."""
         base = jax.random.PRNGKey(seed)
         keys, counts = [], []
         for k in groups:
@@ -236,7 +240,15 @@ class Evaluator:
             counts.append(jnp.full((first,), k, jnp.int32))
         self.env.prepare(first * len(groups))
         k_obs, k_loop = jax.random.split(jax.random.fold_in(base, 1 << 20))
-        return self._reset_worlds(jnp.concatenate(keys), jnp.concatenate(counts), k_obs), k_loop
+        s0, redraws = self.reset_scenes(jnp.concatenate(keys), jnp.concatenate(counts), k_obs)
+        return (s0, k_loop, redraws) if with_redraws else (s0, k_loop)
+
+    def reset_scenes(self, keys: jax.Array, counts: jax.Array, k_obs: jax.Array):
+        """The rounds' first scenes (``redraw_spilled`` with the environment's one compiled
+        reset and ``benchmark.redraw_spilled`` tries): keys (B, 2), counts (B,) int32 objects,
+        k_obs (2,) -> (EnvState of B worlds, redraws (B,) int32 numpy)."""
+        return redraw_spilled(self._reset_worlds, self._where_worlds, keys, counts, k_obs,
+                              self.cfg.benchmark.redraw_spilled)
 
     def play(self, policy: Policy, key, state: EnvState) -> RoundOutcomes:
         """Plays the rounds of ``state`` (B worlds with fresh counters: from ``VagsEnv.reset``, or
@@ -249,6 +261,31 @@ class Evaluator:
         if fn is None:
             fn = self._compiled[policy.plan] = jax.jit(lambda p, k, s: self._rounds_impl(policy, p, k, s))
         return jax.tree.map(np.asarray, jax.device_get(fn(policy.params, key, state)))
+
+
+def redraw_spilled(reset: Callable, where: Callable, keys: jax.Array, counts: jax.Array, k_obs: jax.Array,
+                   tries: int):
+    """New scenes, drawn again where the pile's drop spilled an object: ``reset(keys (B, 2),
+    counts (B,), obs_key (2,)) -> EnvState``; ``where(mask (B,), a, b)`` per world (``where_worlds``).
+    -> (EnvState, redraws (B,) int32 numpy).
+
+    A world whose drop left one of its objects off the table is drawn again from
+    ``fold_in(its key, i)``, i = 1, 2, ... up to ``tries`` times, until all its objects are on
+    the table; ``redraws`` counts its redraws.  A world's scene depends on its own key only (the
+    first draw of its sequence that keeps every object, else its last).  Worlds whose physics
+    failed are not drawn again, so that the failure is reported.  Every redraw resets the whole
+    batch (one compiled program for every try).
+    """
+    s0 = reset(keys, counts, k_obs)
+    redraws = np.zeros(keys.shape[0], np.int32)
+    for i in range(1, tries + 1):
+        spilled = np.asarray(jax.device_get((s0.sim.active.sum(axis=1) < s0.sim.n_objects) & ~s0.sim.error))
+        if not spilled.any():
+            break
+        again = reset(jax.vmap(jax.random.fold_in, (0, None))(keys, i), counts, jax.random.fold_in(k_obs, i))
+        s0 = where(jnp.asarray(spilled), again, s0)
+        redraws += spilled
+    return s0, redraws
 
 
 def scenes_digest(state: EnvState) -> str:

@@ -1093,11 +1093,15 @@ class Benchmark:
     ``speed``, ``capture_s`` per motion (an RGB-D capture + inference at each pose reached),
     ``close_s`` + ``lift_s`` per attempt, ``place_s`` per success.  Round numbers for a UR5 +
     RG2 cell, the same for every method; not measured on a robot.
+    ``redraw_spilled``: a round whose pile drop left an object off the table (before any
+    attempt) gets its scene drawn again, up to this many times (0: never), so that a round of k
+    objects starts with k objects in the workspace, as the paper's do.
     """
 
     groups: Optional[tuple[int, ...]] = None  # None: 1..scene.max_objects
     rounds: int = 50
     max_attempts_extra: int = 5
+    redraw_spilled: int = 0
     speed: float = 0.5  # m/s
     capture_s: float = 0.5
     close_s: float = 0.5
@@ -1112,6 +1116,9 @@ class Benchmark:
             _check(len(set(self.groups)) == len(self.groups), f"Benchmark.groups must not repeat, got {self.groups}")
         _within("Benchmark.rounds", self.rounds, 1, MAX_WORLDS)
         _within("Benchmark.max_attempts_extra", self.max_attempts_extra, 0, 1000)
+        _check(isinstance(self.redraw_spilled, int) and not isinstance(self.redraw_spilled, bool)
+               and 0 <= self.redraw_spilled <= 100,
+               f"Benchmark.redraw_spilled must be a whole number of redraws in 0..100, got {self.redraw_spilled!r}")
         _within("Benchmark.speed", self.speed, 0, 100.0, "m/s", lo_open=True)
         for name in ("capture_s", "close_s", "lift_s", "place_s"):
             _within(f"Benchmark.{name}", getattr(self, name), 0, 3600.0, "seconds")
