@@ -1,13 +1,15 @@
-"""``protocol.redraw_spilled``: rounds whose pile drop spilled an object are drawn again from
-their own key sequence, and only those (a scripted reset stands in for the physics, so each
-world's spill is a known function of its key)."""
+"""Spilled piles: ``protocol.redraw_spilled`` draws those rounds again from their own key
+sequence, ``protocol.redrop_spilled`` drops their spilled objects again, and only those rounds
+(a scripted reset stands in for the physics, so each world's spill is a known function of its
+key); then ``VagsEnv.redrop_worlds`` on real physics."""
 import jax
 import jax.numpy as jnp
 import numpy as np
 from flax import struct
 
-from vags_jax.benchmark.protocol import redraw_spilled
+from vags_jax.benchmark.protocol import redraw_spilled, redrop_spilled
 from vags_jax.env import where_worlds
+from vags_jax.perception import camera
 
 P = 4  # object slots per world
 
@@ -82,3 +84,83 @@ def test_a_world_whose_physics_failed_is_not_drawn_again():
     state, redraws = redraw_spilled(reset, where_worlds, keys, counts, jnp.zeros(2, jnp.uint32), 4)
     assert redraws[2] == 0 and bool(state.sim.error[2])
     np.testing.assert_array_equal(np.asarray(state.sim.key[2]), np.asarray(keys[2]))
+
+
+def test_spilled_objects_are_dropped_again_keeping_the_draws_and_the_other_worlds():
+    """``redrop_spilled``: a world's spilled objects come back after as many drops as its script
+    needs; its draws (the key it was drawn from) never change, worlds with nothing spilled and
+    worlds whose physics failed are left exactly as they were."""
+    keys = jax.random.split(jax.random.PRNGKey(5), 12)
+    counts = jnp.full((12,), 3, jnp.int32)
+    calls = []
+
+    def reset(k, c, o):
+        return _reset(k, c, o, error_world=7)
+
+    def redrop(state, k, c, o):
+        calls.append(1)
+        back = ~jax.vmap(_spills)(jax.vmap(jax.random.fold_in, (0, None))(k, len(calls)))
+        drawn = jnp.arange(P)[None, :] < c[:, None]
+        active = jnp.where(back[:, None], drawn, state.sim.active)
+        return state.replace(sim=state.sim.replace(active=active))
+
+    first = reset(keys, counts, None)
+    state, redrops = redrop_spilled(reset, redrop, where_worlds, keys, counts, jnp.zeros(2, jnp.uint32), 6)
+    np.testing.assert_array_equal(np.asarray(state.sim.key), np.asarray(keys))  # the same draws
+    spilled0 = np.asarray((first.sim.active.sum(1) < 3) & ~first.sim.error)
+    assert spilled0.any() and (~spilled0).any()
+    for w in range(12):
+        if not spilled0[w]:
+            assert redrops[w] == 0
+            np.testing.assert_array_equal(np.asarray(state.sim.active[w]), np.asarray(first.sim.active[w]))
+            continue
+        back = [i for i in range(1, 7) if not bool(_spills(jax.random.fold_in(keys[w], i)))]
+        assert redrops[w] == (back[0] if back else 6)
+        assert int(state.sim.active[w].sum()) == (3 if back else 2)
+    assert redrops[7] == 0 and bool(state.sim.error[7])
+
+
+def test_redrop_puts_a_spilled_object_back_on_the_table_and_keeps_the_draws(fast_cfg):
+    """``VagsEnv.redrop_worlds`` on real physics: an object of world 0 is taken off the table as
+    the housekeeping takes one that left the workspace; the re-drop puts it back on the table,
+    inside the workspace, in the heightmap, with the world's sizes and colours unchanged; world 1,
+    with nothing spilled, keeps every object."""
+    from vags_jax.env import VagsEnv
+
+    env = VagsEnv(fast_cfg)
+    keys = jax.random.split(jax.random.PRNGKey(0), 2)
+    counts = jnp.array([2, 2], jnp.int32)
+    obs = jax.random.PRNGKey(1)
+    s0 = env.reset_worlds(keys, counts, obs)
+    active = np.asarray(s0.sim.active)
+    assert active.sum(1).tolist() == [2, 2]
+    obj = int(np.flatnonzero(active[0])[0])
+    spilled = s0.replace(sim=env.sim.park_objects(s0.sim, jnp.zeros_like(s0.sim.active).at[0, obj].set(True)))
+    assert not bool(spilled.sim.active[0, obj])
+    again = env.redrop_worlds(spilled, keys, counts, obs)
+    assert bool(again.sim.active[0, obj]) and int(again.sim.active.sum()) == 4
+    x, y, z = np.asarray(env.sim.object_positions(again.sim))[0, obj]
+    xmin, xmax, ymin, ymax = fast_cfg.workspace.bounds
+    assert xmin < x < xmax and ymin < y < ymax and z > fast_cfg.workspace.table_z
+    assert not bool(again.sim.error.any())
+    for a, b in ((again.sim.obj_size, s0.sim.obj_size), (again.sim.geom_rgb, s0.sim.geom_rgb),
+                 (again.sim.n_objects, s0.sim.n_objects)):
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+    # The new observation shows it: heightmap cells above the table where the object lies.
+    px = camera.world_xy_to_pixel(jnp.array([[x, y]]), fast_cfg.workspace)[0]
+    assert float(again.height[0, int(px[0]), int(px[1])]) > fast_cfg.exploration.height_threshold
+
+
+def test_the_config_takes_one_remedy_and_redrops_only_piles():
+    import pytest
+
+    from vags_jax import config as C
+
+    cfg = C.tiny()
+    with pytest.raises(ValueError, match="set at most one of them"):
+        C.replace(cfg, **{"benchmark.redraw_spilled": 2, "benchmark.redrop_spilled": 2})
+    with pytest.raises(ValueError, match="needs scene.placement = 'pile'"):
+        C.replace(cfg, **{"benchmark.redrop_spilled": 2, "scene.placement": "scatter"})
+    with pytest.raises(ValueError, match="redrop_spilled must be a whole number"):
+        C.replace(cfg, **{"benchmark.redrop_spilled": -1})
+    assert C.replace(cfg, **{"benchmark.redrop_spilled": 10}).benchmark.redrop_spilled == 10

@@ -106,8 +106,9 @@ class RoundOutcomes:
     first_success: bool, the round's first grasp attempt succeeded (False in a round without one).
     lost_at_start: the part of the objects lost (``lost``) already gone when the round's first
     attempt began: drawn, but outside the workspace or through the table after the pile's drop.
-    redraws: how many times the round's scene was drawn again because its drop spilled an
-    object (``benchmark.redraw_spilled``).
+    redraws: how many times the round's pile was redone because its drop spilled an object:
+    drawn again (``benchmark.redraw_spilled``) or its spilled objects dropped again
+    (``benchmark.redrop_spilled``).
     The last five are None in outcomes recorded before they existed.
     """
 

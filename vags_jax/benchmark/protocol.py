@@ -244,11 +244,15 @@ class Evaluator:
         return (s0, k_loop, redraws) if with_redraws else (s0, k_loop)
 
     def reset_scenes(self, keys: jax.Array, counts: jax.Array, k_obs: jax.Array):
-        """The rounds' first scenes (``redraw_spilled`` with the environment's one compiled
-        reset and ``benchmark.redraw_spilled`` tries): keys (B, 2), counts (B,) int32 objects,
-        k_obs (2,) -> (EnvState of B worlds, redraws (B,) int32 numpy)."""
-        return redraw_spilled(self._reset_worlds, self._where_worlds, keys, counts, k_obs,
-                              self.cfg.benchmark.redraw_spilled)
+        """The rounds' first scenes: keys (B, 2), counts (B,) int32 objects, k_obs (2,) ->
+        (EnvState of B worlds, redraws (B,) int32 numpy: how often each round's spilled pile was
+        drawn (``benchmark.redraw_spilled``, ``redraw_spilled``) or dropped
+        (``benchmark.redrop_spilled``, ``redrop_spilled``) again; zeros with neither)."""
+        b = self.cfg.benchmark
+        if b.redrop_spilled:
+            return redrop_spilled(self._reset_worlds, self.env.redrop_worlds, self._where_worlds, keys, counts,
+                                  k_obs, b.redrop_spilled)
+        return redraw_spilled(self._reset_worlds, self._where_worlds, keys, counts, k_obs, b.redraw_spilled)
 
     def play(self, policy: Policy, key, state: EnvState) -> RoundOutcomes:
         """Plays the rounds of ``state`` (B worlds with fresh counters: from ``VagsEnv.reset``, or
@@ -286,6 +290,31 @@ def redraw_spilled(reset: Callable, where: Callable, keys: jax.Array, counts: ja
         s0 = where(jnp.asarray(spilled), again, s0)
         redraws += spilled
     return s0, redraws
+
+
+def redrop_spilled(reset: Callable, redrop: Callable, where: Callable, keys: jax.Array, counts: jax.Array,
+                   k_obs: jax.Array, tries: int):
+    """New scenes whose spilled objects are dropped onto their piles again: ``reset(keys (B, 2),
+    counts (B,), obs_key (2,)) -> EnvState``; ``redrop(state, keys, counts, obs_key) -> EnvState``
+    (``VagsEnv.redrop_worlds``); ``where(mask (B,), a, b)`` per world.  -> (EnvState, redrops (B,)
+    int32 numpy).
+
+    A world whose drop left one of its objects off the table gets those objects dropped again
+    (the same draws: objects, sizes, colours), up to ``tries`` times, until all are on the table;
+    ``redrops`` counts the drops again.  Unlike ``redraw_spilled`` a world's draws never change,
+    so two processes whose physics settles a pile differently still play the same draws.  Worlds
+    whose physics failed are left as they are (the failure is reported); the others keep their
+    state exactly.
+    """
+    s0 = reset(keys, counts, k_obs)
+    redrops = np.zeros(keys.shape[0], np.int32)
+    for i in range(1, tries + 1):
+        spilled = np.asarray(jax.device_get((s0.sim.active.sum(axis=1) < s0.sim.n_objects) & ~s0.sim.error))
+        if not spilled.any():
+            break
+        s0 = where(jnp.asarray(spilled), redrop(s0, keys, counts, jax.random.fold_in(k_obs, i)), s0)
+        redrops += spilled
+    return s0, redrops
 
 
 def scenes_digest(state: EnvState) -> str:

@@ -1095,13 +1095,16 @@ class Benchmark:
     RG2 cell, the same for every method; not measured on a robot.
     ``redraw_spilled``: a round whose pile drop left an object off the table (before any
     attempt) gets its scene drawn again, up to this many times (0: never), so that a round of k
-    objects starts with k objects in the workspace, as the paper's do.
+    objects starts with k objects in the workspace, as the paper's do.  ``redrop_spilled``: the
+    same by dropping the spilled objects onto their pile again, up to this many times, keeping
+    the round's draws ("pile" placement; at most one of the two may be set).
     """
 
     groups: Optional[tuple[int, ...]] = None  # None: 1..scene.max_objects
     rounds: int = 50
     max_attempts_extra: int = 5
     redraw_spilled: int = 0
+    redrop_spilled: int = 0
     speed: float = 0.5  # m/s
     capture_s: float = 0.5
     close_s: float = 0.5
@@ -1119,6 +1122,12 @@ class Benchmark:
         _check(isinstance(self.redraw_spilled, int) and not isinstance(self.redraw_spilled, bool)
                and 0 <= self.redraw_spilled <= 100,
                f"Benchmark.redraw_spilled must be a whole number of redraws in 0..100, got {self.redraw_spilled!r}")
+        _check(isinstance(self.redrop_spilled, int) and not isinstance(self.redrop_spilled, bool)
+               and 0 <= self.redrop_spilled <= 100,
+               f"Benchmark.redrop_spilled must be a whole number of drops in 0..100, got {self.redrop_spilled!r}")
+        _check(not (self.redraw_spilled and self.redrop_spilled),
+               "Benchmark.redraw_spilled and Benchmark.redrop_spilled are two remedies for the same spill: "
+               "set at most one of them above 0")
         _within("Benchmark.speed", self.speed, 0, 100.0, "m/s", lo_open=True)
         for name in ("capture_s", "close_s", "lift_s", "place_s"):
             _within(f"Benchmark.{name}", getattr(self, name), 0, 3600.0, "seconds")
@@ -1239,6 +1248,9 @@ class Config:
                                f"parallel.devices): each device takes an equal share; make {what} a multiple "
                                f"of {d}, or use fewer devices")
         _within("seed", self.seed, 0, 2**32 - 1)
+        _check(not self.benchmark.redrop_spilled or self.scene.placement == "pile",
+               f"benchmark.redrop_spilled drops spilled objects onto their pile again, which needs "
+               f"scene.placement = 'pile' (got {self.scene.placement!r}): use benchmark.redraw_spilled instead")
         _check(self.scene.drop_margin < self.workspace.size / 2,
                f"scene.drop_margin ({self.scene.drop_margin} m) must be less than half of "
                f"workspace.size ({self.workspace.size} m): objects are dropped inside that margin")

@@ -117,6 +117,7 @@ class VagsEnv(Observation):
         # Every reset outside a traced program runs this one compiled program (``reset_unchecked``
         # splits the key first), so that training's resets and the benchmark's share it.
         self._reset_worlds_jit = jax.jit(self.step_reset_worlds)
+        self._redrop_worlds_jit = jax.jit(self.step_redrop_worlds)
         self._grasp_jit = jax.jit(self.step_grasp)
         self._grasp_world_jit = jax.jit(self.step_grasp_world)
         self._observe_jit = jax.jit(self.observe)
@@ -171,6 +172,19 @@ class VagsEnv(Observation):
         zi = jnp.zeros((B,), jnp.int32)
         return EnvState(sim=sim_state, color=color, height=height, attempts=zi, successes=zi,
                         motions=zi, travel=jnp.zeros((B,), jnp.float32))
+
+    def step_redrop_worlds(self, state: EnvState, keys: jax.Array, n_objects: jax.Array,
+                           obs_key: jax.Array) -> EnvState:
+        """Fresh rounds of ``step_reset_worlds(keys, n_objects, ...)`` with their spilled
+        objects dropped onto their piles again (``Simulator.redrop_batched``), observed anew with
+        obs_key (2,).  The counters stay as they are (zero in fresh rounds)."""
+        sim_state = self.sim.redrop_batched(state.sim, keys, n_objects)
+        color, height = self.observe_global(sim_state, obs_key)
+        return state.replace(sim=sim_state, color=color, height=height)
+
+    def redrop_worlds(self, state: EnvState, keys: jax.Array, n_objects: jax.Array, obs_key: jax.Array) -> EnvState:
+        """``step_redrop_worlds`` compiled (unchecked)."""
+        return self._redrop_worlds_jit(state, keys, n_objects, obs_key)
 
     def reset_where(self, key: jax.Array, state: EnvState, mask: jax.Array, n_objects: jax.Array,
                     observe: bool = True) -> EnvState:

@@ -196,6 +196,29 @@ class ScenePiles:
                                    jnp.zeros((self.n_settle_reset,)), state.obj_size, drops)
         return self._housekeep(state.replace(data=d, active=active, overflow=ovf))
 
+    def _redrop_impl(self, state: SimState, keys, n_objects) -> SimState:
+        d_, drawn, _, _, drops = jax.vmap(self._sample_world)(keys, n_objects)
+        del d_
+        lost = drawn & ~state.active & ~state.error[:, None]  # (B, P) drawn, now off the table
+        order = jnp.cumsum(lost, axis=1) - 1  # the lost bodies drop one after another
+        drops = drops.replace(release=jnp.where(lost, order * self.pile_release_interval, -1).astype(jnp.int32))
+        d = self._wake(state.data, lost.any(axis=1))
+        d, active, ovf = self._run(d, state.active, state.overflow, lambda _: self._park_ctrl(keys.shape[0]),
+                                   jnp.zeros((self.n_settle_reset,)), state.obj_size, drops)
+        return self._housekeep(state.replace(data=d, active=active, overflow=ovf))
+
+    def redrop_batched(self, state: SimState, keys, n_objects) -> SimState:
+        """Drop the pile objects that left the table again, onto their pile: state from
+        ``reset_batched(keys, n_objects)`` with the same keys (B, 2) and n_objects (B,) int32.
+
+        Each world's drawn objects that are no longer active (spilled out of the workspace) are
+        released again, one after another, from their own drop position and orientation, above
+        whatever lies there (as in the reset's drop), and every world settles for the reset's
+        settle time.  The draws (which objects, sizes, colours) do not change.  Worlds whose
+        physics failed are left as they are; worlds with nothing lost just settle on.  "pile"
+        placement only.  -> SimState."""
+        return self._redrop_jit(state, keys, n_objects)
+
     def reset(self, key, n_objects) -> SimState:
         """New scenes.  key: (2,) or (B, 2) uint32 (or typed key () / (B,)); n_objects: (B,) int.
 

@@ -129,6 +129,7 @@ class Simulator(BufferSizes, PerWorldModel, Stepping, ScenePiles, GraspPrimitive
 
         self._template_cache: dict[int, mjx.Data] = {}
         self._reset_jit = jax.jit(self._reset_impl)
+        self._redrop_jit = jax.jit(self._redrop_impl)
         self._grasp_jit = jax.jit(self._grasp_impl)
         self._grasp_reset_jit = jax.jit(self._grasp_or_reset_impl)
         self._settle_jit = jax.jit(self._settle_impl, static_argnums=1)
