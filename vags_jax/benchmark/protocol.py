@@ -280,16 +280,10 @@ def redraw_spilled(reset: Callable, where: Callable, keys: jax.Array, counts: ja
     failed are not drawn again, so that the failure is reported.  Every redraw resets the whole
     batch (one compiled program for every try).
     """
-    s0 = reset(keys, counts, k_obs)
-    redraws = np.zeros(keys.shape[0], np.int32)
-    for i in range(1, tries + 1):
-        spilled = np.asarray(jax.device_get((s0.sim.active.sum(axis=1) < s0.sim.n_objects) & ~s0.sim.error))
-        if not spilled.any():
-            break
-        again = reset(jax.vmap(jax.random.fold_in, (0, None))(keys, i), counts, jax.random.fold_in(k_obs, i))
-        s0 = where(jnp.asarray(spilled), again, s0)
-        redraws += spilled
-    return s0, redraws
+    def again(_, i):
+        return reset(jax.vmap(jax.random.fold_in, (0, None))(keys, i), counts, jax.random.fold_in(k_obs, i))
+
+    return _redo_spilled(reset(keys, counts, k_obs), again, where, tries)
 
 
 def redrop_spilled(reset: Callable, redrop: Callable, where: Callable, keys: jax.Array, counts: jax.Array,
@@ -306,15 +300,24 @@ def redrop_spilled(reset: Callable, redrop: Callable, where: Callable, keys: jax
     whose physics failed are left as they are (the failure is reported); the others keep their
     state exactly.
     """
-    s0 = reset(keys, counts, k_obs)
-    redrops = np.zeros(keys.shape[0], np.int32)
+    def again(state, i):
+        return redrop(state, keys, counts, jax.random.fold_in(k_obs, i))
+
+    return _redo_spilled(reset(keys, counts, k_obs), again, where, tries)
+
+
+def _redo_spilled(s0, again: Callable, where: Callable, tries: int):
+    """Replaces, per world, the spilled rounds of s0 (an object drawn but off the table, physics
+    intact) by ``again(state, i)``'s, for i = 1 .. tries while any is left -> (EnvState, how
+    often each world was redone (B,) int32 numpy)."""
+    done = np.zeros(s0.sim.n_objects.shape[0], np.int32)
     for i in range(1, tries + 1):
         spilled = np.asarray(jax.device_get((s0.sim.active.sum(axis=1) < s0.sim.n_objects) & ~s0.sim.error))
         if not spilled.any():
             break
-        s0 = where(jnp.asarray(spilled), redrop(s0, keys, counts, jax.random.fold_in(k_obs, i)), s0)
-        redrops += spilled
-    return s0, redrops
+        s0 = where(jnp.asarray(spilled), again(s0, i), s0)
+        done += spilled
+    return s0, done
 
 
 def scenes_digest(state: EnvState) -> str:
