@@ -202,6 +202,9 @@ def _evaluate(args, plan, t_main: float, argv) -> int:
         branches = M.format_branches(report["overall"])
         if branches:
             log(branches)
+        spills = M.format_spills(report["overall"], cfg.benchmark.redraw_spilled, cfg.benchmark.redrop_spilled)
+        if spills:
+            log(spills)
         overall[report["seed"]] = report["overall"]
         path = out if args.seeds is None or not out else requests.seed_path(out, seed)
         if path:

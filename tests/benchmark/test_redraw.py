@@ -164,3 +164,15 @@ def test_the_config_takes_one_remedy_and_redrops_only_piles():
     with pytest.raises(ValueError, match="redrop_spilled must be a whole number"):
         C.replace(cfg, **{"benchmark.redrop_spilled": -1})
     assert C.replace(cfg, **{"benchmark.redrop_spilled": 10}).benchmark.redrop_spilled == 10
+
+
+def test_eval_names_spilled_piles_and_the_remedy_in_use():
+    from vags_jax.benchmark import metrics as M
+
+    assert M.format_spills({"objects_lost_at_start": 0, "scenes_redrawn": 0}) is None
+    assert M.format_spills({}) is None  # reports from before these metrics
+    line = M.format_spills({"objects_lost_at_start": 7, "scenes_redrawn": 0})
+    assert "7 objects off the table" in line and "benchmark.redrop_spilled=N" in line
+    line = M.format_spills({"objects_lost_at_start": 1, "scenes_redrawn": 5}, redraw=10)
+    assert line.startswith("spilled piles: 5 rounds redone (benchmark.redraw_spilled=10); 1 object still")
+    assert "redrop_spilled=3" in M.format_spills({"objects_lost_at_start": 0, "scenes_redrawn": 2}, redrop=3)

@@ -275,6 +275,24 @@ def format_branches(m: dict) -> Optional[str]:
             f"({views} of {m['attempts']} attempts)")
 
 
+def format_spills(m: dict, redraw: int = 0, redrop: int = 0) -> Optional[str]:
+    """One line on the piles whose drop spilled an object before the round's first attempt
+    (``summarize``'s ``objects_lost_at_start`` and ``scenes_redrawn``), with the remedy the
+    config set (``benchmark.redraw_spilled`` / ``redrop_spilled``), or None when no pile spilled
+    and none was redone."""
+    start, redone = m.get("objects_lost_at_start") or 0, m.get("scenes_redrawn") or 0
+    if not start and not redone:
+        return None
+    objects = f"{start} object{'' if start == 1 else 's'}"
+    if redraw or redrop:
+        how = f"benchmark.redraw_spilled={redraw}" if redraw else f"benchmark.redrop_spilled={redrop}"
+        return (f"spilled piles: {redone} round{'' if redone == 1 else 's'} redone ({how}); {objects} still off "
+                f"the table at the start of their round")
+    return (f"spilled piles: {objects} off the table before their round's first attempt (the pile's "
+            f"drop threw {'it' if start == 1 else 'them'} out), and a round that lost one cannot be cleared; --set "
+            f"benchmark.redrop_spilled=N drops them again (docs/benchmark.md, \"Spilled piles\")")
+
+
 def format_legend() -> str:
     """The table's columns, one line each, to print under ``format_table``."""
     width = max(len(k) for k, _ in TABLE_LEGEND)
