@@ -197,13 +197,13 @@ class ScenePiles:
         return self._housekeep(state.replace(data=d, active=active, overflow=ovf))
 
     def _redrop_impl(self, state: SimState, keys, n_objects) -> SimState:
-        d_, drawn, _, _, drops = jax.vmap(self._sample_world)(keys, n_objects)
-        del d_
+        _, drawn, _, _, drops = jax.vmap(self._sample_world)(keys, n_objects)  # the reset's draws again
         lost = drawn & ~state.active & ~state.error[:, None]  # (B, P) drawn, now off the table
         order = jnp.cumsum(lost, axis=1) - 1  # the lost bodies drop one after another
         drops = drops.replace(release=jnp.where(lost, order * self.pile_release_interval, -1).astype(jnp.int32))
         d = self._wake(state.data, lost.any(axis=1))
-        d, active, ovf = self._run(d, state.active, state.overflow, lambda _: self._park_ctrl(keys.shape[0]),
+        park_ctrl = self._park_ctrl(keys.shape[0])
+        d, active, ovf = self._run(d, state.active, state.overflow, lambda _: park_ctrl,
                                    jnp.zeros((self.n_settle_reset,)), state.obj_size, drops)
         return self._housekeep(state.replace(data=d, active=active, overflow=ovf))
 
