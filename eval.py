@@ -202,7 +202,7 @@ def _evaluate(args, plan, t_main: float, argv) -> int:
         branches = M.format_branches(report["overall"])
         if branches:
             log(branches)
-        spills = M.format_spills(report["overall"], cfg.benchmark.redraw_spilled, cfg.benchmark.redrop_spilled)
+        spills = M.format_spills(report["overall"], *report["spilled_remedy"])
         if spills:
             log(spills)
         overall[report["seed"]] = report["overall"]

@@ -157,6 +157,13 @@ def test_the_config_takes_one_remedy_and_redrops_only_piles():
     from vags_jax import config as C
 
     cfg = C.tiny()
+    # By default a pile is dropped again; redraws, scattered scenes or an explicit 0 turn that off.
+    assert cfg.scene.placement == "pile" and C.spilled_remedy(cfg) == (0, C.DEFAULT_REDROPS) == (0, 10)
+    assert C.spilled_remedy(C.replace(cfg, **{"benchmark.redraw_spilled": 3})) == (3, 0)
+    assert C.spilled_remedy(C.replace(cfg, **{"scene.placement": "scatter"})) == (0, 0)
+    assert C.spilled_remedy(C.replace(cfg, **{"benchmark.redrop_spilled": 0})) == (0, 0)
+    assert C.spilled_remedy(C.replace(cfg, **{"benchmark.redrop_spilled": 4})) == (0, 4)
+    assert C.spilled_remedy(C.from_saved(C.Config, C.to_dict(cfg))) == (0, 10)  # config.json keeps the default
     with pytest.raises(ValueError, match="set at most one of them"):
         C.replace(cfg, **{"benchmark.redraw_spilled": 2, "benchmark.redrop_spilled": 2})
     with pytest.raises(ValueError, match="needs scene.placement = 'pile'"):

@@ -35,7 +35,7 @@ from flax import struct
 
 from vags_jax.benchmark.metrics import MotionTimeModel, RoundOutcomes, summarize
 from vags_jax.compile_cache import CompileClock
-from vags_jax.config import Config, benchmark_groups
+from vags_jax.config import Config, benchmark_groups, spilled_remedy
 from vags_jax.env import EnvState, VagsEnv, where_worlds
 from vags_jax.env.push import step_with_pushes
 from vags_jax.perception import camera
@@ -248,11 +248,11 @@ class Evaluator:
         (EnvState of B worlds, redraws (B,) int32 numpy: how often each round's spilled pile was
         drawn (``benchmark.redraw_spilled``, ``redraw_spilled``) or dropped
         (``benchmark.redrop_spilled``, ``redrop_spilled``) again; zeros with neither)."""
-        b = self.cfg.benchmark
-        if b.redrop_spilled:
+        redraws, redrops = spilled_remedy(self.cfg)
+        if redrops:
             return redrop_spilled(self._reset_worlds, self.env.redrop_worlds, self._where_worlds, keys, counts,
-                                  k_obs, b.redrop_spilled)
-        return redraw_spilled(self._reset_worlds, self._where_worlds, keys, counts, k_obs, b.redraw_spilled)
+                                  k_obs, redrops)
+        return redraw_spilled(self._reset_worlds, self._where_worlds, keys, counts, k_obs, redraws)
 
     def play(self, policy: Policy, key, state: EnvState) -> RoundOutcomes:
         """Plays the rounds of ``state`` (B worlds with fresh counters: from ``VagsEnv.reset``, or
@@ -350,7 +350,7 @@ def evaluate(cfg: Config, policy: Policy, groups: Optional[Sequence[int]] = None
     (list of ``summarize`` dicts with ``n_objects``, and ``wall_s`` when groups play one
     after the other), ``overall`` (pooled), ``outcomes`` ({k: RoundOutcomes.to_json()}),
     ``wall_s``, ``scenes`` (``scenes_digest`` of the scenes played; None with ``batch_groups``
-    off), ``compile`` (``CompileClock.as_dict()``: seconds compiling, programs compiled and
+    off), ``spilled_remedy`` ([redraws, redrops] a spilled pile got: ``config.spilled_remedy``), ``compile`` (``CompileClock.as_dict()``: seconds compiling, programs compiled and
     programs loaded from the compile cache; zero seconds when the evaluator had them).
     ``seed`` defaults to ``cfg.seed``.  ``batch_groups``: every group in one batch
     (``Evaluator.run_groups``), else one batch per group (``run_group``).
@@ -394,4 +394,5 @@ def _play(ev: Evaluator, policy: Policy, groups, rounds: int, seed: int, time_mo
         "time_model": dataclasses.asdict(time_model),
         "groups_metrics": per_group, "overall": overall, "outcomes": raw,
         "wall_s": round(time.time() - t_all, 2), "batch_groups": bool(batch_groups), "scenes": scenes,
+        "spilled_remedy": list(spilled_remedy(cfg)),
     }

@@ -23,4 +23,5 @@ from vags_jax.config.sections import (MAX_HEIGHTMAP_PX, MAX_IMAGE_SIDE, MAX_WORL
                                       VAGS_GATES, VAGS_VIEW_REWARDS, VAGS_VIEW_ESTIMATES, VAGS_VIEWPOINTS, VAGS_STAGE3_GDNET, VAGS_STAGE3_GDNET_PICKS, VAGS_CLOSE_REGIONS, VAGS_GATE_ESTIMATES, Vags, GGCNN_SIZE_MULTIPLE,
                                       GGCNN_ROTATIONS, GGCNN_LABELS, GGCNNConfig, GGCNNData,
                                       Benchmark, Mvp, Push, Vpg, Parallel, GateTable, Config, benchmark_groups, check_vpg_fits,
+                                      DEFAULT_REDROPS, spilled_remedy,
                                       ggcnn_object_range)
