@@ -269,6 +269,7 @@ def tiny_eval(fast_cfg):
 def test_tiny_heuristic_evaluation_is_sane(tiny_eval):
     cfg, _, _, report = tiny_eval
     assert [m["n_objects"] for m in report["groups_metrics"]] == [1, 2]
+    assert cfg.scene.placement == "pile" and report["spilled_remedy"] == [0, 10]  # the default remedy, resolved
     for m in report["groups_metrics"] + [report["overall"]]:
         for k in ("grasp_success_rate", "clearing_rate"):
             assert 0.0 <= m[k] <= 1.0
