@@ -33,7 +33,9 @@ evaluates VAGS at each absolute threshold (paper Fig. 6), --quantile-sweep A:B:S
 quantiles of the gate's scores that VAGS saw at its decisions in the main run (GDNet's largest Q
 for the paper's "q" gate, minus a move's measured value for "rate"; our Q scale
 need not match the paper's); the sweep goes to RUN/eval_vags_sweep.json and .csv.  Groups, rounds, the attempt budget and the robot-time
-model of picks per hour come from the config's benchmark section (--set benchmark.rounds=20).  The configuration is the run's config.json
+model of picks per hour come from the config's benchmark section (--set benchmark.rounds=20), and so
+does the remedy for piles whose drop spilled an object before the first attempt: dropped again up to 10
+times by default (benchmark.redrop_spilled; docs/benchmark.md, "Spilled piles").  The configuration is the run's config.json
 (or the --config preset) with --set overrides applied; the scene must hold the largest group
 (scene.max_objects).  Prints a Markdown table with a legend of its columns under it
 (docs/benchmark.md, "Metrics", defines each) and writes the full report as JSON to --out, or
