@@ -7,7 +7,9 @@
 #    under the new protocol for issue 23's goals; no default depends on it.
 # 2. One 500-round VAGS table (seed 11) alone on the warm cache, timed as a whole process: issue
 #    27's goal of under 40 s, measured again since re-drops run before every table now.
-# On ONE bare H100 (or H200), after the wheels.  About 8 minutes.
+# 3. Both policies again with benchmark.redrop_spilled=0 (the protocol before the thirty-ninth look),
+#    two at once: how the re-drops move the VAGS-ablation comparison on one run.
+# On ONE bare H100 (or H200), after the wheels.  About 9 minutes.
 # Poll with: bash /root/src/bench/results/throughput/forward_needed/poll.sh 560 /root/res/machine_log.txt
 S=/root/src
 export PYTHONPATH=/root/vags-site:$S PYTHONUNBUFFERED=1 CUDA_VISIBLE_DEVICES=0
@@ -26,5 +28,9 @@ if [ -f $R/gate.json ]; then
   ev abl python eval.py --run $R --no-viewpoint $E --out "$O/seed{seed}/eval_vags-no-viewpoint.json" &
   wait
   run vags_alone bash -c "time python eval.py --run $R --seed 11 --cache-dir $C --out $O/alone/eval_vags.json"
+  E0="$E --set benchmark.redrop_spilled=0"
+  ev vags_d0 python eval.py --run $R $E0 --out "$O/d0/seed{seed}/eval_vags.json" &
+  ev abl_d0 python eval.py --run $R --no-viewpoint $E0 --out "$O/d0/seed{seed}/eval_vags-no-viewpoint.json" &
+  wait
 fi
 echo "done $(date +%T)" >> $RES/machine_log.txt
