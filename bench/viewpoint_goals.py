@@ -8,7 +8,9 @@ clearing, the same pooled over groups 6-10 (successes over attempts, cleared rou
 rounds), motion number, viewpoint share, the viewpoint share at one object, picks per hour;
 then, per seed, the first policy's gain over the second on 6-10 objects, and where the reports hold
 per-round outcomes of the same scenes, the same gains paired round by round with their standard
-errors (how far a seed's figure is from noise).  ``--goals``: then
+errors (how far a seed's figure is from noise), and where the objects of those rounds were lost
+(before the first attempt, by attempts after a move, by direct ones) against the rounds that ran
+out of attempts: a round not cleared either lost an object or used its budget.  ``--goals``: then
 the issue's goals for the first policy against the second, each with its figure per seed and
 whether every seed meets it (the goal that grasps after a move be at least as good as direct
 ones where the gate moves needs the gate table's states: ``bench/gate_headroom.py``).
@@ -90,6 +92,56 @@ def paired_rounds(x: dict, y: dict, lo: int, hi: int):
     c = (sx >= nx).astype(float) - (sy >= ny).astype(float)
     se = lambda v: float(v.std(ddof=1) / np.sqrt(rounds))  # noqa: E731
     return float(px - py), se(d), float(c.mean()), se(c), rounds
+
+
+LOSS_FIELDS = ("n_objects", "attempts", "successes", "remaining", "viewpoints", "lost_after_move", "lost_at_start")
+
+
+def losses(report: dict, lo: int, hi: int):
+    """Where the objects of the groups of lo..hi objects were lost (left the table without a
+    grasp): a dict of counts over their rounds -> lost, at_start (gone before the first attempt),
+    after_move (knocked off by attempts made after a camera move), direct (by the other
+    attempts), attempts, moved (attempts after a move), rounds, losing (rounds that lost one),
+    out (rounds that ended with objects left and their attempt budget of 2k + extra used),
+    cleared; or None where the report lacks the per-round outcomes.  A round is cleared when
+    it neither lost an object nor ran out of attempts, so ``losing`` and ``out`` are why a
+    round is not cleared (both can hold)."""
+    import numpy as np
+
+    m = re.fullmatch(r"2 \* objects \+ (\d+)", str(report.get("max_attempts", "")))
+    groups = [o for n, o in (report.get("outcomes") or {}).items() if lo <= int(n) <= hi]
+    if not groups or m is None or any(f not in o for o in groups for f in LOSS_FIELDS):
+        return None
+    n, att, succ, left, moved, after, start = (np.concatenate([np.asarray(o[f], int) for o in groups])
+                                               for f in LOSS_FIELDS)
+    lost = n - succ - left
+    return {"lost": int(lost.sum()), "at_start": int(start.sum()), "after_move": int(after.sum()),
+            "direct": int((lost - start - after).sum()), "attempts": int(att.sum()), "moved": int(moved.sum()),
+            "rounds": int(n.size), "losing": int((lost > 0).sum()),
+            "out": int(((left > 0) & (att >= 2 * n + int(m.group(1)))).sum()), "cleared": int((succ >= n).sum())}
+
+
+def losses_table(reports: dict, policies: list, seeds: list, lo: int = 6, hi: int = 10) -> list:
+    """Markdown lines: ``losses`` pooled over the seeds, one row per policy whose reports all
+    hold per-round outcomes; [] when none does."""
+    lines = []
+    for pol in policies:
+        parts = [losses(reports[pol, s], lo, hi) for s in seeds if (pol, s) in reports]
+        if not parts or any(x is None for x in parts):
+            continue
+        t = {k: sum(x[k] for x in parts) for k in parts[0]}
+        per = lambda k, d: f"{t[k]} ({100 * t[k] / d:.1f} %)" if d else "-"  # noqa: E731
+        lines.append(f"| {pol} | {t['attempts']} | {t['moved']} | {t['lost']} | {t['at_start']} | "
+                     f"{per('after_move', t['moved'])} | {per('direct', t['attempts'] - t['moved'])} | "
+                     f"{t['losing']} of {t['rounds']} | {t['out']} | {t['cleared']} of {t['rounds']} |")
+    if not lines:
+        return []
+    return [f"\nWhere the objects of the {lo}-{hi} piles were lost ({len(seeds)} seed{'s' if len(seeds) > 1 else ''} "
+            "pooled):\n",
+            "| policy | attempts | after a move | objects lost | gone at start | lost by attempts after a move "
+            "(per such attempt) | lost by direct attempts (per attempt) | rounds that lost one | rounds out of "
+            "attempts | cleared |",
+            "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"] + lines
 
 
 # Issue 23's goals: (name, figure of a (VAGS row, ablation row) pair, "min" / "max" / "below", bound,
@@ -200,6 +252,9 @@ def main(argv=None) -> int:
                 print(f"| {s} | not paired (no per-round outcomes or other scenes) | | |" if v is None else
                       f"| {s} | {v[4]} | {100 * v[0]:+.1f} ± {100 * v[1]:.1f} | {100 * v[2]:+.1f} ± {100 * v[3]:.1f} |")
             print("(paired round by round on the same scenes; ± one standard error of the difference)")
+        lost = losses_table(reports, args.policies, seeds)
+        if lost:
+            print("\n".join(lost))
         if args.goals:
             print()
             print("\n".join(goals_table(rows, a, b, seeds)))

@@ -134,3 +134,44 @@ def test_gains_paired_round_by_round_with_their_standard_errors(tmp_path, capsys
     _write(str(bare / "seed11" / "eval_vags-no-viewpoint.json"), _goal_report(0.8, 0.0, 80, 0.5, 1.1), gz=False)
     assert viewpoint_goals.main([str(bare)]) == 0
     assert "paired round by round" not in capsys.readouterr().out
+
+
+def _loss_report(rounds, extra=1):
+    """A report of one 6-object group whose rounds are (attempts, successes, remaining, viewpoints,
+    lost_after_move, lost_at_start) tuples, with an attempt budget of 2k + extra."""
+    cols = list(zip(*rounds))
+    rep = _goal_report(0.9, 0.05, sum(cols[1]), 0.5, 1.2)
+    rep["max_attempts"] = f"2 * objects + {extra}"
+    rep["outcomes"] = {"6": {"n_objects": [6] * len(rounds), **{k: list(v) for k, v in zip(
+        ("attempts", "successes", "remaining", "viewpoints", "lost_after_move", "lost_at_start"), cols)}}}
+    return rep
+
+
+def test_where_the_objects_were_lost_and_which_rounds_ran_out_of_attempts(tmp_path, capsys):
+    import viewpoint_goals
+
+    # VAGS: a clean round; a round that lost 2 of 6 (one gone before its first attempt, one knocked
+    # off after a move); a round that lost one by a direct grasp and ended with one left after its
+    # 2 * 6 + 1 = 13 attempts.  26 attempts, 5 after a move: 1 of 5 (20.0 %) and 1 of 21 (4.8 %).
+    # The ablation: a clean round, a round that lost one by a direct grasp, and a round cleared at
+    # its 13th attempt (not out of attempts: nothing was left).
+    run = tmp_path / "run"
+    vags = [(6, 6, 0, 2, 0, 0), (7, 4, 0, 3, 1, 1), (13, 4, 1, 0, 0, 0)]
+    abl = [(6, 6, 0, 0, 0, 0), (8, 5, 0, 0, 0, 0), (13, 6, 0, 0, 0, 0)]
+    _write(str(run / "seed11" / "eval_vags.json"), _loss_report(vags), gz=False)
+    _write(str(run / "seed11" / "eval_vags-no-viewpoint.json"), _loss_report(abl), gz=True)
+    assert viewpoint_goals.main([str(run)]) == 0
+    out = capsys.readouterr().out
+    assert "Where the objects of the 6-10 piles were lost (1 seed pooled)" in out
+    assert "| vags | 26 | 5 | 3 | 1 | 1 (20.0 %) | 1 (4.8 %) | 2 of 3 | 1 | 1 of 3 |" in out
+    assert "| vags-no-viewpoint | 27 | 0 | 1 | 0 | - | 1 (3.7 %) | 1 of 3 | 0 | 2 of 3 |" in out
+    # A budget of 2k + 2: the third VAGS round (13 attempts) did not run out; reports from before
+    # the per-round losses were recorded print no row.
+    assert viewpoint_goals.losses(_loss_report(vags, extra=2), 6, 10)["out"] == 0
+    old = _loss_report(vags)
+    del old["outcomes"]["6"]["lost_at_start"]
+    assert viewpoint_goals.losses(old, 6, 10) is None
+    _write(str(run / "seed11" / "eval_vags.json"), old, gz=False)
+    assert viewpoint_goals.main([str(run)]) == 0
+    out = capsys.readouterr().out
+    assert "| vags-no-viewpoint | 27 |" in out and "| vags | 26 |" not in out
