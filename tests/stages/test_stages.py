@@ -319,6 +319,51 @@ def test_train_close_score_success_plans_the_grasp_after_a_move_by_the_success_n
                                      env).close_success_q(su2)
 
 
+def test_success_label_is_the_grasp_or_the_grasp_that_knocked_nothing_off():
+    """``vags.success_label``: "grasp" labels every successful grasp, "clean" only those during
+    which no object left the table; both at ``success_reward``."""
+    success = jnp.array([True, True, False, False])
+    knocked = jnp.array([0, 2, 0, 1], jnp.int32)
+    vcfg = C.Vags(success_reward=2.0)
+    np.testing.assert_array_equal(vags_stages.success_label(success, knocked, vcfg), [2.0, 2.0, 0.0, 0.0])
+    np.testing.assert_array_equal(
+        vags_stages.success_label(success, knocked, C.replace(vcfg, success_label="clean")), [2.0, 0.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match="success_label must be one of"):
+        C.replace(C.tiny(), **{"vags.success_label": "tidy"})
+
+
+def test_success_label_clean_trains_the_success_net_on_its_label(runs, programs):
+    """``vags.success_label="clean"``: GDNet's replay in stages 2-3 carries the label
+    (``LabelledGraspTransition``; traced, not compiled), and the success net's update on such a
+    batch is the default's update on the same batch with the label as reward, not the reward."""
+    full, _ = runs
+    base = checkpoint.load_config(full)
+    env = programs.env(base)
+    gd2, va2, su2, thr2 = pipeline.stage2_result(full, base)
+    stages = {lab: vags_stages.VagsStage(C.replace(base, **{"vags.success_label": lab}), 2, env)
+              for lab in ("grasp", "clean")}
+    for lab, kind in (("grasp", replay.GraspTransition), ("clean", replay.LabelledGraspTransition)):
+        st = stages[lab]
+        state = st.init(pipeline.stage_key(base, "stage2"), gd2, None, va2, thr2, su2, abstract_replays=True)
+        out, _ = jax.eval_shape(st._iteration, state, st.flags)
+        assert type(out.gdnet_replay.data) is kind, lab
+    H, b, R = base.workspace.heightmap_px, base.dqn.batch_size, base.net.n_rotations
+    rng = np.random.default_rng(0)
+    t = replay.make_grasp_transition(
+        rng.integers(0, 256, (b, H, H, 3)), rng.uniform(0, 0.05, (b, H, H)),
+        np.stack([rng.integers(0, R, b), rng.integers(0, H, b), rng.integers(0, H, b)], 1), np.ones(b),
+        rng.integers(0, 256, (b, H, H, 3)), rng.uniform(0, 0.05, (b, H, H)), np.zeros(b, bool))
+    batch = replay.make_labelled_transition(t, np.arange(b) % 2)  # every grasp succeeded, half clean
+    w = jnp.ones((b,), jnp.float32)
+    clean = jax.jit(stages["clean"].update_success)(su2, batch, w)
+    grasp = jax.jit(stages["grasp"].update_success)
+    on_label = grasp(su2, replay.label_as_reward(batch), w)
+    on_reward = grasp(su2, t, w)
+    assert checkpoint.tree_equal(clean[0].params, on_label[0].params)
+    np.testing.assert_array_equal(clean[2], on_label[2])  # the TD errors
+    assert not checkpoint.tree_equal(clean[0].params, on_reward[0].params)
+
+
 def test_train_throughput_times_stage_3_from_the_runs_networks(runs, programs, monkeypatch):
     """bench/train_throughput.py --stage stage3: stage 3's whole iterations from the run's saved
     networks, in the pipeline's chunks, on the stage program the pipeline compiled; then its

@@ -693,6 +693,7 @@ VAGS_CLOSE_REGIONS = ("seen", "map")
 VAGS_GATE_ESTIMATES = ("grasp", "symmetric", "window")
 VAGS_CLOSE_SCORES = ("q", "success")
 VAGS_DIRECT_SCORES = ("q", "q_mean", "success")
+VAGS_SUCCESS_LABELS = ("grasp", "clean")
 
 
 @dataclass(frozen=True)
@@ -789,6 +790,13 @@ class Vags:
       (``rate_gate.split_capped``), from the states the table was measured on
       (RUN/gate_states.npz); False, or a run without those states: drop whole bins, as before
       this field.  Read when the table is loaded.
+    success_label: what the success net (gamma 0, stages 2-3) learns to estimate.  "grasp": the
+      grasp succeeded (GDNet's reward); "clean": the grasp succeeded and no object left the
+      table during the attempt (``VagsEnv.knocked_off``), so the grasp after a move, scored by
+      it under ``close_score="success"``, avoids grasps that knock objects off, and the
+      "success" gate's running estimates (its bias and the mean after a move) follow the same
+      label.  GDNet's reward and VANet's stay the grasp's success.  Runs written before this
+      field read "grasp".
     train_ggcnn: the pipeline (train.py with no --stage) also trains GG-CNN when local_planner
       is "gdnet", which does not use it (for eval.py --policy ggcnn / ggcnn-close); with "ggcnn"
       it always does.  ``train.py --stage ggcnn --out RUN`` adds one to a run later.
@@ -817,6 +825,7 @@ class Vags:
     close_score: str = "q"
     train_close_score: str = "q"
     direct_score: str = "q"
+    success_label: str = "grasp"
 
     def __post_init__(self):
         _check(self.local_planner in VAGS_LOCAL_PLANNERS,
@@ -842,6 +851,8 @@ class Vags:
                    f"{self.local_planner!r}: set vags.{name}=q or vags.local_planner=gdnet")
         _check(self.direct_score in VAGS_DIRECT_SCORES,
                f"Vags.direct_score must be one of {VAGS_DIRECT_SCORES}, got {self.direct_score!r}")
+        _check(self.success_label in VAGS_SUCCESS_LABELS,
+               f"Vags.success_label must be one of {VAGS_SUCCESS_LABELS}, got {self.success_label!r}")
         _check(self.view_reward in VAGS_VIEW_REWARDS,
                f"Vags.view_reward must be one of {VAGS_VIEW_REWARDS}, got {self.view_reward!r}")
         if self.threshold is not None:

@@ -108,6 +108,36 @@ def make_grasp_transition(color, height, action, reward, next_color, next_height
 
 
 @flax.struct.dataclass
+class LabelledGraspTransition:
+    """A :class:`GraspTransition` with a second target, ``label`` () float32, for a learner with
+    gamma 0 that shares the buffer (stages 2-3's success net under ``vags.success_label =
+    "clean"``: success with no object knocked off).  The other fields are GraspTransition's, and
+    a learner that reads ``reward`` treats it as one."""
+
+    color: jax.Array
+    height: jax.Array
+    action: jax.Array
+    reward: jax.Array
+    next_color: jax.Array
+    next_height: jax.Array
+    done: jax.Array
+    label: jax.Array
+
+
+def make_labelled_transition(t: GraspTransition, label) -> LabelledGraspTransition:
+    """``t`` (any leading batch shape) with ``label`` (same leading shape) -> LabelledGraspTransition."""
+    return LabelledGraspTransition(color=t.color, height=t.height, action=t.action, reward=t.reward,
+                                   next_color=t.next_color, next_height=t.next_height, done=t.done,
+                                   label=jnp.asarray(label, jnp.float32))
+
+
+def label_as_reward(t: LabelledGraspTransition) -> GraspTransition:
+    """The GraspTransition whose reward is ``t``'s label: what the label's learner trains on."""
+    return GraspTransition(color=t.color, height=t.height, action=t.action, reward=t.label,
+                           next_color=t.next_color, next_height=t.next_height, done=t.done)
+
+
+@flax.struct.dataclass
 class ValuedGraspTransition:
     """A grasp attempt stored with its bootstrap value instead of its next state (stage 1 with
     ``stage1.bootstrap = "actor"``).  Shapes per item, as :class:`GraspTransition`.

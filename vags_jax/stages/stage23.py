@@ -132,10 +132,19 @@ def _nbv_stage(cfg: Config) -> Stage:
     return dataclasses.replace(cfg.nbv, max_objects=top, min_objects=min(cfg.nbv.min_objects, top))
 
 
-def _example_transition(H: int, action_dim: int):
+def _example_transition(H: int, action_dim: int, labelled: bool = False):
     color, height = jnp.zeros((H, H, 3), jnp.uint8), jnp.zeros((H, H), jnp.float32)
-    return replay.make_grasp_transition(color, height, jnp.zeros((action_dim,), jnp.int32), 0.0, color, height,
-                                        False)
+    t = replay.make_grasp_transition(color, height, jnp.zeros((action_dim,), jnp.int32), 0.0, color, height, False)
+    return replay.make_labelled_transition(t, 0.0) if labelled else t
+
+
+def success_label(success: jax.Array, knocked_off: jax.Array, vcfg: Vags) -> jax.Array:
+    """The success net's target (``config.Vags.success_label``): success (B,) bool, knocked_off
+    (B,) int32 objects that left the table during the attempt -> (B,) float32:
+    ``success_reward`` where the grasp succeeded ("grasp") and, with "clean", knocked nothing off;
+    else 0."""
+    good = success & (knocked_off <= 0) if vcfg.success_label == "clean" else success
+    return jnp.where(good, vcfg.success_reward, 0.0).astype(jnp.float32)
 
 
 @struct.dataclass
@@ -171,9 +180,13 @@ class VagsStage:
         self.vanet = make_qnet(self.view_net_cfg, "vanet")
         self.ggcnn = GGCNN()
         self.update_gdnet = dqn.make_update_step(self._apply_gdnet, cfg.dqn, executed_rotation_only=True)
-        self.update_success = dqn.make_update_step(
+        update_success = dqn.make_update_step(
             self._apply_gdnet, dataclasses.replace(cfg.dqn, gamma=0.0, double_q=False, symmetric_grasp_label=False),
             executed_rotation_only=True)
+        # Under success_label="clean" GDNet's replay carries the success net's own target.
+        self.labelled = cfg.vags.success_label != "grasp"
+        self.update_success = ((lambda ts, batch, w: update_success(ts, replay.label_as_reward(batch), w))
+                               if self.labelled else update_success)
         self.update_vanet = dqn.make_update_step(self._apply_vanet, dataclasses.replace(cfg.dqn, gamma=cfg.vags.vanet_gamma))
         # On an accelerator the state is donated: its buffers (two replays, 16 GB with the gpu
         # preset) are reused for the result instead of being held twice.  Not on the CPU (tests,
@@ -250,7 +263,7 @@ class VagsStage:
         thr = calibrated_threshold(gd_qmax, cfg.vags) if threshold is None else jnp.asarray(threshold, jnp.float32)
         make = jax.eval_shape if abstract_replays else (lambda f: f())
         va_buffer = make(lambda: replay.init(cfg.replay.capacity, _example_transition(H, 2)))
-        gd_buffer = make(lambda: replay.init(cfg.replay.capacity, _example_transition(H, 3)))
+        gd_buffer = make(lambda: replay.init(cfg.replay.capacity, _example_transition(H, 3, self.labelled)))
         # Every leaf its own buffer (``run`` donates the state, and a buffer may be donated once).
         return VagsTrainState(env=env_state, gdnet=gdnet, vanet=vanet, success=success, vanet_replay=va_buffer,
                               gdnet_replay=gd_buffer, ggcnn=ggcnn_params, threshold=thr.reshape(()),
@@ -341,7 +354,9 @@ class VagsStage:
         success = result.success & acting
         over = env.round_over(s2, extra) | s2.sim.error
         viewing, direct_acting = acting & ~direct, acting & direct
-        calibration = update_calibration(state.calibration, p_direct, p_view, success, direct_acting & ~g_explored,
+        # The success net's target; the "success" gate's running estimates follow the same label.
+        label = success_label(success, env.knocked_off(s, s2, success), cfg.vags)
+        calibration = update_calibration(state.calibration, p_direct, p_view, label > 0, direct_acting & ~g_explored,
                                          viewing & ~v_explored, cfg.vags.calibration_decay)
 
         r_view = view_reward(success, state.gd_qmax, gd_qmax2, cfg.vags)
@@ -351,9 +366,11 @@ class VagsStage:
         on_fused = ~direct & flags.fused_to_replay
         pick = lambda a, b: jnp.where(on_fused.reshape((-1,) + (1,) * (a.ndim - 1)), a, b)  # noqa: E731
         r_grasp = jnp.where(success, cfg.vags.success_reward, 0.0).astype(jnp.float32)
-        gd_buffer = replay.add(state.gdnet_replay, replay.make_grasp_transition(
-            pick(close.color, s.color), pick(close.height, s.height), pick(close.action, grasp), r_grasp,
-            s2.color, s2.height, over), mask=direct_acting | (acting & on_fused))
+        gd_t = replay.make_grasp_transition(pick(close.color, s.color), pick(close.height, s.height),
+                                            pick(close.action, grasp), r_grasp, s2.color, s2.height, over)
+        if self.labelled:
+            gd_t = replay.make_labelled_transition(gd_t, label)
+        gd_buffer = replay.add(state.gdnet_replay, gd_t, mask=direct_acting | (acting & on_fused))
         gdnet, vanet, succ_net, gd_buffer, va_buffer, stats, n_updates = self._learn(
             state, va_buffer, gd_buffer, k_learn, flags.train_gdnet)
 
