@@ -1,8 +1,10 @@
 """``checkpoint.restore_parts``: several parts of one checkpoint in one read, the same arrays as
-``restore_part`` per part; optional parts; a part of another shape refused before reading."""
+``restore_part`` per part; optional parts; a part of another shape refused before reading; a
+restore compiles nothing."""
 import numpy as np
 import pytest
 
+from vags_jax.compile_cache import CompileClock
 from vags_jax.stages import checkpoint
 
 
@@ -27,6 +29,18 @@ def test_restore_parts_equals_restore_part_per_part(saved):
         one, _ = checkpoint.restore_part(saved, name, like if name != "threshold" else np.zeros((), np.float32))
         assert checkpoint.tree_equal(got[name], one), name
     assert np.array_equal(np.asarray(got["b"]["params"]["w"]), _tree(2.0)["params"]["w"])
+
+
+def test_a_restore_compiles_no_program(tmp_path):
+    """The arrays go to the device by transfer: no program per leaf shape to compile, or to load
+    from the compile cache (each costs time in every eval.py and train.py process).  Shapes no
+    other test uses, so that no program of theirs is already in this process."""
+    tree = {"w": np.ones((5, 7, 11), np.float32), "n": np.arange(13, dtype=np.int32)}
+    checkpoint.save(str(tmp_path), 1, {"odd": tree})
+    with CompileClock() as clock:
+        got, _ = checkpoint.restore_parts(str(tmp_path), {"odd": {k: np.zeros_like(v) for k, v in tree.items()}})
+    assert checkpoint.tree_equal(got["odd"], tree)
+    assert clock.backend == 0, clock.as_dict()
 
 
 def test_optional_parts_and_parts_as_saved(saved):

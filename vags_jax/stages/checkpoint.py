@@ -470,8 +470,9 @@ def restore_parts(run_dir: str, targets: dict, step: Optional[int] = None,
     arrays, step = read(run_dir, step, parts=names, saved=saved)
     out = dict.fromkeys(targets)
     for n in names:
-        out[n] = arrays[n] if targets[n] is None else _unflatten(
-            targets[n], {k: jax.numpy.asarray(v) for k, v in arrays[n].items()})
+        # device_put transfers without compiling: jnp.asarray would compile (or load from the
+        # compile cache) one small program per leaf shape.
+        out[n] = arrays[n] if targets[n] is None else _unflatten(targets[n], jax.device_put(arrays[n]))
     return out, step
 
 
