@@ -161,6 +161,36 @@ GOALS = (
 AGAINST_ABLATION = ("6-10 success at least 5 points above the ablation", "6-10 clearing no worse than the ablation's")
 
 
+def gate_lost_table(top: str, looks) -> list:
+    """Markdown lines: the objects knocked off on the same states of every gate table found as
+    ``TOP/<look>_look/<run>/gate.json`` (its ``lost``: all states and the moving bins' states,
+    direct grasp against the grasp after a move, per 100 states), for the tables whose direct
+    grasp GDNet planned ("q", "q_mean"), then the range and mean of the moving bins' difference."""
+    lines = ["| table | direct score | states | direct % | moved % | moved - direct | moving bins: states | direct % "
+             "| moved % | moved - direct |", "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    diffs = []
+    for look in looks:
+        folder = os.path.join(top, f"{look}_look")
+        for sub in sorted(os.listdir(folder)):
+            path = os.path.join(folder, sub, "gate.json")
+            if not os.path.isfile(path):
+                continue
+            with open(path) as f:
+                g = json.load(f)
+            if "lost" not in g or g.get("direct_score") not in ("q", "q_mean"):
+                continue
+            a, m = g["lost"]["all"], g["lost"]["moved_bins"]
+            diffs.append(100 * m["difference"])
+            lines.append(f"| {look}/{sub} | {g['direct_score']} | {a['states']} | {100 * a['direct']:.1f} | "
+                         f"{100 * a['moved']:.1f} | {100 * a['difference']:+.1f} ± {100 * a['se']:.1f} | {m['states']} | "
+                         f"{100 * m['direct']:.1f} | {100 * m['moved']:.1f} | {100 * m['difference']:+.1f} ± "
+                         f"{100 * m['se']:.1f} |")
+    if diffs:
+        lines += ["", f"{len(diffs)} tables; moving bins, moved - direct: {min(diffs):+.1f} to {max(diffs):+.1f}, "
+                      f"mean {sum(diffs) / len(diffs):+.2f} points"]
+    return lines
+
+
 def other_gdnet(x: dict, y: dict) -> bool:
     """True when two rows name different GDNets (rows of reports without the key never differ)."""
     return x.get("gdnet") is not None and y.get("gdnet") is not None and x["gdnet"] != y["gdnet"]

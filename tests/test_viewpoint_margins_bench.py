@@ -175,3 +175,29 @@ def test_where_the_objects_were_lost_and_which_rounds_ran_out_of_attempts(tmp_pa
     assert viewpoint_goals.main([str(run)]) == 0
     out = capsys.readouterr().out
     assert "| vags-no-viewpoint | 27 |" in out and "| vags | 26 |" not in out
+
+
+def test_gate_lost_table_over_the_looks_gate_tables(tmp_path):
+    """``viewpoint_goals.gate_lost_table``: one row per gate table whose direct grasp GDNet
+    planned (tables without ``lost``, or planned by the success net, are left out), per 100
+    states, then the moving bins' range and mean."""
+    import viewpoint_goals
+
+    def gate(path, score, moved_bins_diff, lost=True):
+        os.makedirs(path)
+        g = {"direct_score": score}
+        if lost:
+            g["lost"] = {"all": {"states": 100, "direct": 0.03, "moved": 0.02, "difference": -0.01, "se": 0.005},
+                         "moved_bins": {"states": 20, "direct": 0.1, "moved": 0.1 + moved_bins_diff,
+                                        "difference": moved_bins_diff, "se": 0.01}}
+        with open(os.path.join(path, "gate.json"), "w") as f:
+            json.dump(g, f)
+
+    gate(str(tmp_path / "first_look" / "a"), "q", -0.02)
+    gate(str(tmp_path / "first_look" / "b"), "success", -0.5)  # left out: the success net planned it
+    gate(str(tmp_path / "second_look" / "c"), "q_mean", 0.01)
+    gate(str(tmp_path / "second_look" / "d"), "q", -0.5, lost=False)  # left out: no `lost`
+    lines = viewpoint_goals.gate_lost_table(str(tmp_path), ("first", "second"))
+    assert lines[2:4] == ["| first/a | q | 100 | 3.0 | 2.0 | -1.0 ± 0.5 | 20 | 10.0 | 8.0 | -2.0 ± 1.0 |",
+                          "| second/c | q_mean | 100 | 3.0 | 2.0 | -1.0 ± 0.5 | 20 | 10.0 | 11.0 | +1.0 ± 1.0 |"]
+    assert lines[-1] == "2 tables; moving bins, moved - direct: -2.0 to +1.0, mean -0.50 points"

@@ -30,9 +30,8 @@ Storage
 """
 from __future__ import annotations
 
-from typing import Optional
-
-from typing import Any
+import dataclasses
+from typing import Any, Optional
 
 import flax.struct
 import jax
@@ -108,33 +107,27 @@ def make_grasp_transition(color, height, action, reward, next_color, next_height
 
 
 @flax.struct.dataclass
-class LabelledGraspTransition:
+class LabelledGraspTransition(GraspTransition):
     """A :class:`GraspTransition` with a second target, ``label`` () float32, for a learner with
     gamma 0 that shares the buffer (stages 2-3's success net under ``vags.success_label =
-    "clean"``: success with no object knocked off).  The other fields are GraspTransition's, and
-    a learner that reads ``reward`` treats it as one."""
+    "clean"``: success with no object knocked off).  A learner that reads ``reward`` treats it
+    as a GraspTransition."""
 
-    color: jax.Array
-    height: jax.Array
-    action: jax.Array
-    reward: jax.Array
-    next_color: jax.Array
-    next_height: jax.Array
-    done: jax.Array
     label: jax.Array
+
+
+def _fields(t) -> dict:
+    return {f.name: getattr(t, f.name) for f in dataclasses.fields(GraspTransition)}
 
 
 def make_labelled_transition(t: GraspTransition, label) -> LabelledGraspTransition:
     """``t`` (any leading batch shape) with ``label`` (same leading shape) -> LabelledGraspTransition."""
-    return LabelledGraspTransition(color=t.color, height=t.height, action=t.action, reward=t.reward,
-                                   next_color=t.next_color, next_height=t.next_height, done=t.done,
-                                   label=jnp.asarray(label, jnp.float32))
+    return LabelledGraspTransition(**_fields(t), label=jnp.asarray(label, jnp.float32))
 
 
 def label_as_reward(t: LabelledGraspTransition) -> GraspTransition:
     """The GraspTransition whose reward is ``t``'s label: what the label's learner trains on."""
-    return GraspTransition(color=t.color, height=t.height, action=t.action, reward=t.label,
-                           next_color=t.next_color, next_height=t.next_height, done=t.done)
+    return GraspTransition(**{**_fields(t), "reward": t.label})
 
 
 @flax.struct.dataclass

@@ -85,24 +85,9 @@ for r in (10, 0):
         print(f"| {r} | {seed} | {'yes' if a['scenes'] == b['scenes'] else 'no'} | {diff} of 250 |")
 
 print("\n### Objects knocked off on the same states: the gate tables (RUN/gate.json's `lost`)\n")
-print("| table | direct score | states | direct % | moved % | moved - direct | moving bins: states | direct % | moved % | moved - direct |")
-print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|")
 LOOKS = ("thirtieth", "thirtysecond", "thirtythird", "thirtyfourth", "thirtyfifth", "thirtysixth",
          "thirtyseventh", "thirtyeighth")
-diffs = []
-for look in LOOKS:
-    top = os.path.join(HERE, "..", f"{look}_look")
-    for sub in sorted(os.listdir(top)):
-        path = os.path.join(top, sub, "gate.json")
-        if not os.path.isfile(path):
-            continue
-        with open(path) as f:
-            g = json.load(f)
-        if "lost" not in g or g.get("direct_score") not in ("q", "q_mean"):
-            continue
-        a, m = g["lost"]["all"], g["lost"]["moved_bins"]
-        diffs.append(100 * m["difference"])
-        print(f"| {look}/{sub} | {g['direct_score']} | {a['states']} | {100 * a['direct']:.1f} | {100 * a['moved']:.1f} | "
-              f"{100 * a['difference']:+.1f} ± {100 * a['se']:.1f} | {m['states']} | {100 * m['direct']:.1f} | "
-              f"{100 * m['moved']:.1f} | {100 * m['difference']:+.1f} ± {100 * m['se']:.1f} |")
-print(f"\n{len(diffs)} tables; moving bins, moved - direct: {min(diffs):+.1f} to {max(diffs):+.1f}, mean {np.mean(diffs):+.2f} points")
+sys.path.insert(0, os.path.join(ROOT, "bench"))
+import viewpoint_goals  # noqa: E402
+
+print("\n".join(viewpoint_goals.gate_lost_table(os.path.join(HERE, ".."), LOOKS)))
