@@ -8,7 +8,8 @@ clearing, the same pooled over groups 6-10 (successes over attempts, cleared rou
 rounds), motion number, viewpoint share, the viewpoint share at one object, picks per hour;
 then, per seed, the first policy's gain over the second on 6-10 objects, and where the reports hold
 per-round outcomes of the same scenes, the same gains paired round by round with their standard
-errors (how far a seed's figure is from noise), and where the objects of those rounds were lost
+errors (how far a seed's figure is from noise; with every seed paired, a row "all" pools their
+rounds), and where the objects of those rounds were lost
 (before the first attempt, by attempts after a move, by direct ones) against the rounds that ran
 out of attempts: a round not cleared either lost an object or used its budget.  ``--goals``: then
 the issue's goals for the first policy against the second, each with its figure per seed and
@@ -68,19 +69,26 @@ def paired_rounds(x: dict, y: dict, lo: int, hi: int):
     per-round differences; success is a ratio (successes / attempts), so each round enters
     through its deviation from the pooled ratio, scaled by the mean attempts per round (the
     delta method), and the standard error is that of the mean paired deviation."""
+    return paired_rounds_pooled([(x, y)], lo, hi)
+
+
+def paired_rounds_pooled(pairs: list, lo: int, hi: int):
+    """``paired_rounds`` over the rounds of several (x, y) report pairs at once (say, every seed's):
+    the same figures, pooled; None where any pair cannot be paired."""
     import numpy as np
 
-    if "outcomes" not in x or "outcomes" not in y or x.get("scenes") != y.get("scenes"):
-        return None
     cols = {"x": [], "y": []}
-    for n in range(lo, hi + 1):
-        ox, oy = x["outcomes"].get(str(n)), y["outcomes"].get(str(n))
-        if ox is None or oy is None:
-            continue
-        if len(ox["attempts"]) != len(oy["attempts"]):
+    for x, y in pairs:
+        if "outcomes" not in x or "outcomes" not in y or x.get("scenes") != y.get("scenes"):
             return None
-        for side, o in (("x", ox), ("y", oy)):
-            cols[side].append(np.stack([np.asarray(o[k], float) for k in ("attempts", "successes", "n_objects")]))
+        for n in range(lo, hi + 1):
+            ox, oy = x["outcomes"].get(str(n)), y["outcomes"].get(str(n))
+            if ox is None or oy is None:
+                continue
+            if len(ox["attempts"]) != len(oy["attempts"]):
+                return None
+            for side, o in (("x", ox), ("y", oy)):
+                cols[side].append(np.stack([np.asarray(o[k], float) for k in ("attempts", "successes", "n_objects")]))
     if not cols["x"]:
         return None
     (ax, sx, nx), (ay, sy, ny) = np.concatenate(cols["x"], 1), np.concatenate(cols["y"], 1)
@@ -278,10 +286,13 @@ def main(argv=None) -> int:
         if any(v is not None for v in paired.values()):
             print(f"\n| seed | rounds | 6-10 success: {a} - {b} | 6-10 clearing |")
             print("|---:|---:|---:|---:|")
-            for s, v in paired.items():
+            pooled = (paired_rounds_pooled([(reports[a, s], reports[b, s]) for s in paired], 6, 10)
+                      if len(paired) > 1 else None)
+            for s, v in list(paired.items()) + ([("all", pooled)] if pooled is not None else []):
                 print(f"| {s} | not paired (no per-round outcomes or other scenes) | | |" if v is None else
                       f"| {s} | {v[4]} | {100 * v[0]:+.1f} ± {100 * v[1]:.1f} | {100 * v[2]:+.1f} ± {100 * v[3]:.1f} |")
-            print("(paired round by round on the same scenes; ± one standard error of the difference)")
+            print("(paired round by round on the same scenes; ± one standard error of the difference; \"all\": "
+                  "every seed's rounds pooled)")
         lost = losses_table(reports, args.policies, seeds)
         if lost:
             print("\n".join(lost))

@@ -128,6 +128,17 @@ def test_gains_paired_round_by_round_with_their_standard_errors(tmp_path, capsys
     out = capsys.readouterr().out
     assert "| 11 | 4 | +5.5 ± 6.9 | +0.0 ± 40.8 |" in out
     assert "| 12 | not paired (no per-round outcomes or other scenes) | | |" in out
+    assert "| all |" not in out  # a seed that cannot be paired: no pooled row
+    # Seeds 11 and 13 alike, both paired: the pooled row has their 8 rounds.  Clearing: differences
+    # 0, +1, 0, -1 twice, mean 0, variance 4/7, standard error sqrt(4/7) / sqrt(8) = 0.267.  Success:
+    # the same deviations twice, sum of squares 0.11382, variance 0.01626, standard error 0.0451.
+    two = tmp_path / "two"
+    for seed in (11, 13):
+        _write(str(two / f"seed{seed}" / "eval_vags.json"), _round_report([6, 6, 8, 8], [6, 6, 6, 5]), gz=False)
+        _write(str(two / f"seed{seed}" / "eval_vags-no-viewpoint.json"), _round_report([6, 7, 8, 9], [6, 5, 6, 6]),
+               gz=False)
+    assert viewpoint_goals.main([str(two)]) == 0
+    assert "| all | 8 | +5.5 ± 4.5 | +0.0 ± 26.7 |" in capsys.readouterr().out
     # Reports without per-round outcomes (as the other tests' hand-made ones) print no such table.
     bare = tmp_path / "bare"
     _write(str(bare / "seed11" / "eval_vags.json"), _goal_report(0.9, 0.05, 90, 0.6, 1.2), gz=False)
