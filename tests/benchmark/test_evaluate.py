@@ -359,3 +359,24 @@ def test_seeds_write_one_report_per_seed_from_one_compiled_evaluator(tiny_eval, 
 def test_seeds_errors(argv, msg, capsys):
     assert eval_cli.main(["--config", "tiny", "--policy", "heuristic"] + argv) == 2
     assert re.search(msg, capsys.readouterr().err)
+
+
+def test_scene_keys_are_each_groups_own_in_one_program():
+    """``protocol._scene_keys``: group k's round keys are split from ``fold_in(PRNGKey(seed), k)``
+    as ``run_group``'s (so a group's scenes do not depend on the other groups played), the
+    observation and play keys from ``fold_in(PRNGKey(seed), 2**20)``; one compiled program, not
+    one eager program per step."""
+    from vags_jax.compile_cache import CompileClock
+
+    base = jax.random.PRNGKey(5)
+    with CompileClock() as clock:
+        keys, counts, k_obs, k_loop = E._scene_keys(base, (2, 7), 4, 3)
+    assert clock.backend == 1, clock.as_dict()
+    for i, k in enumerate((2, 7)):
+        k_sim = jax.random.split(jax.random.split(jax.random.fold_in(base, k))[0])[0]
+        np.testing.assert_array_equal(keys[3 * i:3 * i + 3], jax.random.split(k_sim, 4)[:3])
+    np.testing.assert_array_equal(counts, [2, 2, 2, 7, 7, 7])
+    np.testing.assert_array_equal(jnp.stack([k_obs, k_loop]), jax.random.split(jax.random.fold_in(base, 1 << 20)))
+    spilled = E._spilled_worlds(jnp.array([[True, False], [True, True], [False, False]]), jnp.array([2, 2, 1]),
+                                jnp.array([False, False, True]))
+    np.testing.assert_array_equal(spilled, [True, False, False])  # the third world's physics failed

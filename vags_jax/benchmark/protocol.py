@@ -23,6 +23,7 @@ come from the seed and the whole batch.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import time
 import warnings
@@ -231,16 +232,9 @@ class Evaluator:
         group k's per-round keys come from ``fold_in(PRNGKey(seed), k)``), in one batch ->
         (EnvState of len(groups) * first worlds, the key of the rounds' play), and with
         ``with_redraws`` the (B,) redraws of ``reset_scenes`` last."""
-        base = jax.random.PRNGKey(seed)
-        keys, counts = [], []
-        for k in groups:
-            k_reset, _ = jax.random.split(jax.random.fold_in(base, k))
-            k_sim, _ = jax.random.split(k_reset)
-            keys.append(jax.random.split(k_sim, rounds)[:first])
-            counts.append(jnp.full((first,), k, jnp.int32))
+        keys, counts, k_obs, k_loop = _scene_keys(jax.random.PRNGKey(seed), tuple(groups), rounds, first)
         self.env.prepare(first * len(groups))
-        k_obs, k_loop = jax.random.split(jax.random.fold_in(base, 1 << 20))
-        s0, redraws = self.reset_scenes(jnp.concatenate(keys), jnp.concatenate(counts), k_obs)
+        s0, redraws = self.reset_scenes(keys, counts, k_obs)
         return (s0, k_loop, redraws) if with_redraws else (s0, k_loop)
 
     def reset_scenes(self, keys: jax.Array, counts: jax.Array, k_obs: jax.Array):
@@ -265,6 +259,28 @@ class Evaluator:
         if fn is None:
             fn = self._compiled[policy.plan] = jax.jit(lambda p, k, s: self._rounds_impl(policy, p, k, s))
         return jax.tree.map(np.asarray, jax.device_get(fn(policy.params, key, state)))
+
+
+@functools.partial(jax.jit, static_argnums=(1, 2, 3))
+def _scene_keys(base: jax.Array, groups: tuple, rounds: int, first: int):
+    """The benchmark's per-round scene keys, in one program: base (2,) ``PRNGKey(seed)``, groups
+    (G,) object counts -> (keys (G * first, 2): group k's rounds 0..first-1 from
+    ``fold_in(base, k)``, counts (G * first,) int32, the observation key (2,), the play key (2,))."""
+    ks = jnp.asarray(groups, jnp.int32)
+
+    def group_keys(k):
+        k_sim = jax.random.split(jax.random.split(jax.random.fold_in(base, k))[0])[0]
+        return jax.random.split(k_sim, rounds)[:first]
+
+    keys = jax.vmap(group_keys)(ks).reshape(len(groups) * first, -1)
+    k_obs, k_loop = jax.random.split(jax.random.fold_in(base, 1 << 20))
+    return keys, jnp.repeat(ks, first), k_obs, k_loop
+
+
+@jax.jit
+def _spilled_worlds(active: jax.Array, n_objects: jax.Array, error: jax.Array) -> jax.Array:
+    """(B,) bool: an object drawn for the world is off the table and its physics is intact."""
+    return (active.sum(axis=1) < n_objects) & ~error
 
 
 def redraw_spilled(reset: Callable, where: Callable, keys: jax.Array, counts: jax.Array, k_obs: jax.Array,
@@ -312,7 +328,7 @@ def _redo_spilled(s0, again: Callable, where: Callable, tries: int):
     often each world was redone (B,) int32 numpy)."""
     done = np.zeros(s0.sim.n_objects.shape[0], np.int32)
     for i in range(1, tries + 1):
-        spilled = np.asarray(jax.device_get((s0.sim.active.sum(axis=1) < s0.sim.n_objects) & ~s0.sim.error))
+        spilled = np.asarray(jax.device_get(_spilled_worlds(s0.sim.active, s0.sim.n_objects, s0.sim.error)))
         if not spilled.any():
             break
         s0 = where(jnp.asarray(spilled), again(s0, i), s0)
