@@ -21,7 +21,8 @@ objects.  One *iteration* is, for every world at once:
      ``view_reward``: the success of the grasp after the move, or eq. 5); GDNet's grasps -- the
      direct ones, and with the "gdnet" planner those on the fused close-view maps (not in stage 3
      with ``vags.stage3_gdnet="direct"``) -- into GDNet's replay (action [rotation, row, col],
-     reward 1 on success); the last attempt of a round is terminal;
+     reward 1 on success; with ``vags.success_label="clean"`` also the success net's label, 1 on
+     a success that knocked no object off the table); the last attempt of a round is terminal;
   6. ``updates_per_iteration`` updates of each learner from its replay: the success net
      (gamma 0, GDNet's replay; stages 2 and 3), GDNet (stage 3, unless ``vags.stage3_gdnet`` is
      "frozen") and VANet (``vags.vanet_gamma``);
