@@ -7,7 +7,6 @@ objects on the same states over every gate table since the thirtieth look.
 
     python bench/results/viewpoints/default/fortieth_look/tables.py
 """
-import gzip
 import json
 import os
 import re
@@ -20,11 +19,10 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 TOP = os.path.dirname(HERE)
 ROOT = os.path.abspath(os.path.join(HERE, *[".."] * 5))
 SEEDS = (11, 12, 13)
+sys.path.insert(0, os.path.join(ROOT, "bench"))
+import viewpoint_goals  # noqa: E402
 
-
-def load(path):
-    with gzip.open(path + ".gz", "rt") as f:
-        return json.load(f)
+load = viewpoint_goals.read_report  # a committed report is gzipped beside its name
 
 
 def per_round(report, field, groups=range(6, 11)):
@@ -89,7 +87,4 @@ print("\n" + ", ".join(f"{run}: {n} of 750 rounds start spilled ({100 * n / 750:
 print("\n## Objects knocked off on the same states: the gate tables (RUN/gate.json's `lost`)\n")
 LOOKS = ("thirtieth", "thirtysecond", "thirtythird", "thirtyfourth", "thirtyfifth", "thirtysixth",
          "thirtyseventh", "thirtyeighth", "thirtyninth", "fortieth")
-sys.path.insert(0, os.path.join(ROOT, "bench"))
-import viewpoint_goals  # noqa: E402
-
 print("\n".join(viewpoint_goals.gate_lost_table(TOP, LOOKS)))
