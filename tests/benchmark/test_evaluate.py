@@ -368,15 +368,18 @@ def test_scene_keys_are_each_groups_own_in_one_program():
     one eager program per step."""
     from vags_jax.compile_cache import CompileClock
 
-    base = jax.random.PRNGKey(5)
     with CompileClock() as clock:
-        keys, counts, k_obs, k_loop = E._scene_keys(base, (2, 7), 4, 3)
+        keys, counts, k_obs, k_loop = E._scene_keys(5, (2, 7), 4, 3)
     assert clock.backend == 1, clock.as_dict()
+    base = jax.random.PRNGKey(5)
     for i, k in enumerate((2, 7)):
         k_sim = jax.random.split(jax.random.split(jax.random.fold_in(base, k))[0])[0]
         np.testing.assert_array_equal(keys[3 * i:3 * i + 3], jax.random.split(k_sim, 4)[:3])
     np.testing.assert_array_equal(counts, [2, 2, 2, 7, 7, 7])
     np.testing.assert_array_equal(jnp.stack([k_obs, k_loop]), jax.random.split(jax.random.fold_in(base, 1 << 20)))
+    big = 2**40 + 3  # a seed past 32 bits seeds inside the program as an eager PRNGKey does
+    np.testing.assert_array_equal(E._scene_keys(big, (2,), 1, 1)[2:],
+                                  jax.random.split(jax.random.fold_in(jax.random.PRNGKey(big), 1 << 20)))
     spilled = E._spilled_worlds(jnp.array([[True, False], [True, True], [False, False]]), jnp.array([2, 2, 1]),
                                 jnp.array([False, False, True]))
     np.testing.assert_array_equal(spilled, [True, False, False])  # the third world's physics failed

@@ -232,7 +232,7 @@ class Evaluator:
         group k's per-round keys come from ``fold_in(PRNGKey(seed), k)``), in one batch ->
         (EnvState of len(groups) * first worlds, the key of the rounds' play), and with
         ``with_redraws`` the (B,) redraws of ``reset_scenes`` last."""
-        keys, counts, k_obs, k_loop = _scene_keys(jax.random.PRNGKey(seed), tuple(groups), rounds, first)
+        keys, counts, k_obs, k_loop = _scene_keys(seed, tuple(groups), rounds, first)
         self.env.prepare(first * len(groups))
         s0, redraws = self.reset_scenes(keys, counts, k_obs)
         return (s0, k_loop, redraws) if with_redraws else (s0, k_loop)
@@ -261,11 +261,13 @@ class Evaluator:
         return jax.tree.map(np.asarray, jax.device_get(fn(policy.params, key, state)))
 
 
-@functools.partial(jax.jit, static_argnums=(1, 2, 3))
-def _scene_keys(base: jax.Array, groups: tuple, rounds: int, first: int):
-    """The benchmark's per-round scene keys, in one program: base (2,) ``PRNGKey(seed)``, groups
-    (G,) object counts -> (keys (G * first, 2): group k's rounds 0..first-1 from
-    ``fold_in(base, k)``, counts (G * first,) int32, the observation key (2,), the play key (2,))."""
+@functools.partial(jax.jit, static_argnums=(0, 1, 2, 3))
+def _scene_keys(seed: int, groups: tuple, rounds: int, first: int):
+    """The benchmark's per-round scene keys, in one program: with base = ``PRNGKey(seed)`` and
+    groups (G,) object counts -> (keys (G * first, 2): group k's rounds 0..first-1 from
+    ``fold_in(base, k)``, counts (G * first,) int32, the observation key (2,), the play key (2,)).
+    The seed is static (as a Python int it seeds exactly as an eager ``PRNGKey(seed)``)."""
+    base = jax.random.PRNGKey(seed)
     ks = jnp.asarray(groups, jnp.int32)
 
     def group_keys(k):
@@ -387,10 +389,10 @@ def evaluate(cfg: Config, policy: Policy, groups: Optional[Sequence[int]] = None
 
 def _play(ev: Evaluator, policy: Policy, groups, rounds: int, seed: int, time_model, log, batch_groups: bool) -> dict:
     cfg = ev.cfg
-    base = jax.random.PRNGKey(seed)
     per_group, parts, raw = [], [], {}
     t_all = time.time()
     batched, scenes = ev.run_groups_and_scenes(policy, seed, groups, rounds) if batch_groups else (None, None)
+    base = None if batched is not None else jax.random.PRNGKey(seed)
     for i, k in enumerate(groups):
         t0 = time.time()
         out = batched[i] if batched is not None else ev.run_group(policy, jax.random.fold_in(base, k), k, rounds)

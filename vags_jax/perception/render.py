@@ -197,23 +197,23 @@ def prepare_geometry(
         off = np.ones((len(items), pb), np.float32)
         for i, (_, n, c, _) in enumerate(items):
             nrm[i, : len(n)], off[i, : len(n)] = n, c
-        groups.append(Polytopes(jnp.asarray([it[0] for it in items], jnp.int32), jnp.asarray(nrm),
-                                jnp.asarray(off), jnp.asarray([it[3] for it in items], bool)))
+        groups.append(Polytopes(jax.device_put(np.asarray([it[0] for it in items], np.int32)), jax.device_put(nrm),
+                                jax.device_put(off), jax.device_put(np.asarray([it[3] for it in items], bool))))
     spheres = (
         Spheres(
-            jnp.asarray([s[0] for s in sph], jnp.int32),
-            jnp.asarray([s[1] for s in sph], jnp.float32),
-            jnp.asarray([s[2] for s in sph], jnp.float32),
-            jnp.asarray([s[3] for s in sph], jnp.float32),
+            jax.device_put(np.asarray([s[0] for s in sph], np.int32)),
+            jax.device_put(np.asarray([s[1] for s in sph], np.float32)),
+            jax.device_put(np.asarray([s[2] for s in sph], np.float32)),
+            jax.device_put(np.asarray([s[3] for s in sph], np.float32)),
         )
         if sph
         else None
     )
     cylinders = (
         Cylinders(
-            jnp.asarray([c[0] for c in cyl], jnp.int32),
-            jnp.asarray([c[1] for c in cyl], jnp.float32),
-            jnp.asarray([c[2] for c in cyl], jnp.float32),
+            jax.device_put(np.asarray([c[0] for c in cyl], np.int32)),
+            jax.device_put(np.asarray([c[1] for c in cyl], np.float32)),
+            jax.device_put(np.asarray([c[2] for c in cyl], np.float32)),
         )
         if cyl
         else None

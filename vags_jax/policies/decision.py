@@ -30,6 +30,7 @@ from typing import Any, Callable, Optional
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 from flax import struct
 
 from vags_jax import batching
@@ -223,7 +224,7 @@ def gate_threshold(vcfg: Vags, q_threshold) -> jax.Array:
         return jnp.asarray(q_threshold, jnp.float32)
     if vcfg.gate == "rate":
         return jnp.zeros((), jnp.float32)
-    return jnp.asarray(-vcfg.move_cost, jnp.float32)
+    return jax.device_put(np.float32(-vcfg.move_cost))
 
 
 def _check_maps(q_grasp, q_view) -> None:

@@ -106,7 +106,7 @@ def learner_target(cfg: Config, kind: str) -> dqn.TrainState:
     of ``cfg`` (a restore target; nothing is compiled)."""
     H = cfg.workspace.heightmap_px
     net = make_qnet(nbv_net(cfg.net), "vanet") if kind == "nbv" else make_qnet(cfg.net, kind)
-    shapes = jax.eval_shape(lambda k: dqn.create_train_state(init_qnet(k, net, H, H), cfg.dqn), jax.random.PRNGKey(0))
+    shapes = jax.eval_shape(lambda k: dqn.create_train_state(init_qnet(k, net, H, H), cfg.dqn), jax.ShapeDtypeStruct((2,), jnp.uint32))
     return jax.tree.map(lambda x: np.zeros(x.shape, x.dtype), shapes)
 
 
