@@ -42,6 +42,18 @@ def scene():
     return dict(m=m, d=d, poses=poses, colors=colors, out=out, geometry=geometry)
 
 
+def test_prepare_geometry_compiles_no_program():
+    """The geometry tables go to the device by transfer, not by one small program per table
+    (each is loaded from the compile cache in every eval.py and train.py process)."""
+    from vags_jax.compile_cache import CompileClock
+
+    m, _ = rs.load(rs.clutter_xml())
+    with CompileClock() as clock:
+        geometry = render.prepare_geometry(m)
+    assert clock.backend == 0, clock.as_dict()
+    assert geometry.polytopes and geometry.spheres is not None and geometry.cylinders is not None
+
+
 def test_depth_matches_mj_ray(scene):
     """Within 1 mm of MuJoCo C's mj_ray (z-depth) on every pixel both hit, at 4 camera poses."""
     m, d, out = scene["m"], scene["d"], scene["out"]
