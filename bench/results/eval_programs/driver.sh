@@ -8,7 +8,7 @@
 # "new" is this tree; "old" is the same tree with ffd2d2e's four files (carried in .dev/old).
 # Runs: new cold (fills the cache), old warm-up (compiles its extra small programs), then
 # new, old, new, old warm, each timed as a whole process, programs counted from JAX's log;
-# then bench/process_startup.py once.  About 5 minutes on ONE bare machine after the wheels.
+# bench/process_startup.py once before them all (the device time left may end the list early).  About 5 minutes on ONE bare machine after the wheels.
 S=/root/src
 export PYTHONPATH=/root/vags-site PYTHONUNBUFFERED=1 CUDA_VISIBLE_DEVICES=0
 unset JAX_COMPILATION_CACHE_DIR
@@ -21,12 +21,12 @@ one() {  # KEY TREE
     "time python eval.py --config gpu --policy heuristic --groups 1-10 --rounds 10 --seed 11 --cache-dir $C --out $RES/$key/eval.json")
   echo "$key programs=$(grep -c 'Finished XLA compilation of' $RES/$key.txt) hits=$(grep -c 'Persistent compilation cache hit' $RES/$key.txt) $(grep real $RES/$key.txt)" >> $RES/programs.txt
 }
+(cd $S && PYTHONPATH=/root/vags-site:$S python bench/process_startup.py --programs 60 --out $RES/startup.json > $RES/startup.txt 2>&1)
+echo "startup rc=$? $(date +%T)" >> $RES/machine_log.txt
 one new_cold $S
 one old_warmup /root/old
 one new_warm1 $S
 one old_warm1 /root/old
 one new_warm2 $S
 one old_warm2 /root/old
-cd $S && PYTHONPATH=/root/vags-site:$S python bench/process_startup.py --programs 60 --out $RES/startup.json > $RES/startup.txt 2>&1
-echo "startup rc=$? $(date +%T)" >> $RES/machine_log.txt
 echo "done $(date +%T)" >> $RES/machine_log.txt
