@@ -40,7 +40,8 @@ times by default (benchmark.redrop_spilled; docs/benchmark.md, "Spilled piles").
 (scene.max_objects).  Prints a Markdown table with a legend of its columns under it
 (docs/benchmark.md, "Metrics", defines each) and writes the full report as JSON to --out, or
 to RUN/eval_<policy>[_<stage of --networks>][_step<N>].json, with a CSV beside it (one row per group and overall); the
-report's process_s says where the process spent its seconds before the first round.
+report's process_s says where the process spent its seconds before the first round, and how many
+programs it compiled or loaded there.
 --plot PATH draws success and clearing against the number of objects (paper Fig. 7), one line per
 method (needs matplotlib: pip install 'vags_jax[plot]');
 with a sweep, the sweep's plot goes beside it (PATH stem + _sweep.png).  --record DIR writes
@@ -68,6 +69,7 @@ from vags_jax.benchmark import metrics as M  # noqa: E402
 from vags_jax.benchmark import protocol as E  # noqa: E402
 from vags_jax.benchmark import planners, reports, requests, sweep  # noqa: E402
 from vags_jax.benchmark.record_rounds import record_rounds  # noqa: E402
+from vags_jax.compile_cache import CompileClock  # noqa: E402
 from vags_jax.policies import rate_gate  # noqa: E402
 
 _T_IMPORTED = time.perf_counter()
@@ -110,13 +112,14 @@ def _gdnet_note(networks) -> str:
     return note + (f", after a move {close}" if close and close != networks.gdnet_source else "")
 
 
-def _startup_seconds(t_main: float, t_inputs: float, t_env: float, new_process: bool) -> dict:
+def _startup_seconds(t_main: float, t_inputs: float, t_env: float, new_process: bool, clock: CompileClock) -> dict:
     """Where the process's seconds went before the first round (the report's ``process_s``):
     imports (a new process only), checking the inputs and reading the networks (the device
-    starts here), building the environment, building the policy."""
+    starts here), building the environment, building the policy; and ``programs``, the programs
+    compiled or loaded from the compile cache in those steps (each costs time in every process)."""
     return {"imports_s": round(_T_IMPORTED - _T0, 2) if new_process else None,
             "inputs_s": round(t_inputs - t_main, 2), "environment_s": round(t_env - t_inputs, 2),
-            "policy_s": _since(t_env)}
+            "policy_s": _since(t_env), "programs": clock.backend}
 
 
 def main(argv=None) -> int:
@@ -128,12 +131,14 @@ def main(argv=None) -> int:
         return error
     if args.compare:
         return main_compare(args)
+    clock = CompileClock().__enter__()  # programs before the first round; _evaluate closes it
     try:
         plan = requests.prepare_eval(args)  # every input, before anything is compiled
     except ValueError as e:  # includes CheckpointError and config validation
+        clock.close()
         return cli.fail(PROG, e)
     try:
-        return _evaluate(args, plan, t_main, argv)
+        return _evaluate(args, plan, t_main, argv, clock)
     except jax.errors.JaxRuntimeError as e:  # XLA's out-of-memory; any other error keeps its traceback
         what = cli.out_of_memory(e)
         if what is None:
@@ -144,11 +149,14 @@ def main(argv=None) -> int:
               f"(fewer processes beside it, or a larger XLA_PYTHON_CLIENT_MEM_FRACTION); the reports written "
               f"before it stay", file=sys.stderr)
         return 1
+    finally:
+        clock.close()
 
 
-def _evaluate(args, plan, t_main: float, argv) -> int:
+def _evaluate(args, plan, t_main: float, argv, clock: CompileClock) -> int:
     """``main`` once every input is checked: plays the plan's seeds, writes the reports, runs the
-    sweep, plot and recording it asks for -> exit code."""
+    sweep, plot and recording it asks for -> exit code.  ``clock``, open since before the inputs,
+    is closed once the policy is built."""
     policy, name, cfg, groups, rounds = plan.policy, plan.name, plan.cfg, plan.groups, plan.rounds
     networks, step, out, sweep_out, compare = plan.networks, plan.step, plan.out, plan.sweep_out, plan.compare
     sweep_abs, sweep_q, time_model = plan.sweep_abs, plan.sweep_q, plan.time_model
@@ -165,11 +173,15 @@ def _evaluate(args, plan, t_main: float, argv) -> int:
         for note in filter(None, notes):
             log(note)
     t_inputs = time.perf_counter()
-    ev = E.Evaluator(cfg)
-    t_env = time.perf_counter()
-    pol = requests.policy_of(plan, args)
-    process = _startup_seconds(t_main, t_inputs, t_env, new_process=argv is None)
-    log("ready in " + ", ".join(f"{k[:-2]} {v} s" for k, v in process.items() if v is not None))
+    try:
+        ev = E.Evaluator(cfg)
+        t_env = time.perf_counter()
+        pol = requests.policy_of(plan, args)
+    finally:
+        clock.close()
+    process = _startup_seconds(t_main, t_inputs, t_env, new_process=argv is None, clock=clock)
+    log("ready in " + ", ".join(f"{k[:-2]} {v} s" for k, v in process.items() if k.endswith("_s") and v is not None)
+        + f"; {process['programs']} programs compiled or loaded")
     extra = {"run": args.run, "checkpoint_step": step, "process_s": process}
     if policy == "vags":
         extra["planners"] = planners.planners(cfg)

@@ -52,6 +52,19 @@ def test_the_clock_tells_a_compile_from_a_load():
     assert (third.compiled, third.loaded, third.seconds) == (0, 0, 0.0)
 
 
+def test_a_closed_clock_stops_counting():
+    """``close`` (what eval.py calls once the policy is built) stops the count; a second close
+    does nothing."""
+    x = jnp.arange(9.0)
+    clock = compile_cache.CompileClock().__enter__()
+    jax.jit(lambda x: jnp.cos(x) * 1.75 - 0.5)(x).block_until_ready()
+    clock.close()
+    clock.close()
+    seen = (clock.backend, clock.loaded)
+    jax.jit(lambda x: jnp.cos(x) * 2.75 - 0.5)(x).block_until_ready()
+    assert seen[0] == 1 and (clock.backend, clock.loaded) == seen
+
+
 PROGRAM = """
 import sys, jax, jax.numpy as jnp
 from vags_jax import compile_cache

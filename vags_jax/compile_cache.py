@@ -107,8 +107,15 @@ class CompileClock:
     def __enter__(self) -> "CompileClock":
         jax.monitoring.register_event_duration_secs_listener(self._duration)
         jax.monitoring.register_event_listener(self._event)
+        self._open = True
         return self
 
     def __exit__(self, *exc) -> None:
-        jax.monitoring.unregister_event_duration_listener(self._duration)
-        jax.monitoring.unregister_event_listener(self._event)
+        self.close()
+
+    def close(self) -> None:
+        """Stops counting (once; later calls do nothing)."""
+        if getattr(self, "_open", False):
+            jax.monitoring.unregister_event_duration_listener(self._duration)
+            jax.monitoring.unregister_event_listener(self._event)
+            self._open = False

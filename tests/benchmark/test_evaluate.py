@@ -344,6 +344,7 @@ def test_seeds_write_one_report_per_seed_from_one_compiled_evaluator(tiny_eval, 
         with open(tmp_path / f"seed{seed}" / "eval.json") as f:
             reports[seed] = json.load(f)
         assert reports[seed]["seed"] == seed and os.path.exists(tmp_path / f"seed{seed}" / "eval.csv")
+        assert type(reports[seed]["process_s"]["programs"]) is int  # counted before the first round
     assert json.dumps(reports[0]["outcomes"]) == json.dumps(report["outcomes"])
     assert json.dumps(reports[5]["outcomes"]) != json.dumps(report["outcomes"])
     table = capsys.readouterr().out
