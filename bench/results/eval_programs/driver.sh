@@ -5,7 +5,10 @@
 # tiny preset on the CPU) save on the GPU.  No trained run fits this session's device time, so
 # the policy is the heuristic on the gpu preset (no networks: the environment, renderer, re-drop
 # and rounds loop that every policy's process builds), groups 1-10 x 10 rounds, seed 11.
-# "new" is this tree; "old" is the same tree with ffd2d2e's four files (carried in .dev/old).
+# "new" is this tree; "old" is the same tree with ffd2d2e's four files, made beside the tree and
+# carried with the call (.dev is git-ignored):
+#   for f in vags_jax/perception/render.py vags_jax/policies/decision.py vags_jax/stages/rundir.py \
+#            vags_jax/benchmark/protocol.py; do mkdir -p .dev/old/$(dirname $f); git show ffd2d2e:$f > .dev/old/$f; done
 # Runs: new cold (fills the cache), old warm-up (compiles its extra small programs), then
 # new, old, new, old warm, each timed as a whole process, programs counted from JAX's log;
 # bench/process_startup.py once before them all (the device time left may end the list early).  About 5 minutes on ONE bare machine after the wheels.
