@@ -86,6 +86,7 @@ class CompileClock:
 
     def __init__(self):
         self.seconds, self.backend, self.loaded = 0.0, 0, 0
+        self._open = False
 
     @property
     def compiled(self) -> int:
@@ -115,7 +116,7 @@ class CompileClock:
 
     def close(self) -> None:
         """Stops counting (once; later calls do nothing)."""
-        if getattr(self, "_open", False):
+        if self._open:
             jax.monitoring.unregister_event_duration_listener(self._duration)
             jax.monitoring.unregister_event_listener(self._event)
             self._open = False
