@@ -187,9 +187,10 @@ def _evaluate(args, plan, t_main: float, argv, clock: CompileClock) -> int:
         extra["planners"] = planners.planners(cfg)
     if policy == "vags" and cfg.vags.gate == "rate" and networks is not None and not args.no_viewpoint:
         table = rate_gate.load_table(args.run, networks.source, networks.gdnet_source,
-                                     networks.close_source, cfg.vags.max_motion_number, cfg.vags.cap_split)
+                                     networks.close_source, cfg.vags.max_motion_number, cfg.vags.cap_split,
+                                     cfg.vags.gate_min_z)
         if table is not None:
-            extra["rate_gate"] = {**rate_gate.moves_summary(table, cfg.vags.max_motion_number),
+            extra["rate_gate"] = {**rate_gate.moves_summary(table, cfg.vags.max_motion_number, cfg.vags.gate_min_z),
                                   "estimate": cfg.vags.gate_estimate, "close_score": cfg.vags.close_score,
                                   "direct_score": cfg.vags.direct_score,
                                   "cap_split": cfg.vags.cap_split, "edges": [round(e, 5) for e in table.edges]}
@@ -200,6 +201,8 @@ def _evaluate(args, plan, t_main: float, argv, clock: CompileClock) -> int:
                 f"predicts a motion number of {rate_gate.motion_number_text(g['motion_number'])} and "
                 f"{100 * g['success']:.1f} % success"
                 + (f" (vags.max_motion_number={g['max_motion_number']:g})" if g["max_motion_number"] else "")
+                + (f" (vags.gate_min_z={g['min_z']:g}: no move within that many standard errors of 0)"
+                   if g["min_z"] else "")
                 + (f"; in bins {g['close_bins']} a move's value is within two standard errors of 0, so the "
                    "table's states could not tell whether it pays there" if g["close_bins"] else ""))
     overall = {}

@@ -1,5 +1,6 @@
 """The "rate" gate (vags_jax/policies/rate_gate.py): Dinkelbach's choice, the binned table, the
 lookup inside the decision, RUN/gate.json; expectations worked out by hand."""
+import dataclasses
 import json
 import os
 
@@ -169,7 +170,7 @@ def test_the_motion_cap_drops_the_moves_that_add_least_success(tmp_path):
                                [0.3, -0.01, 0.2], rtol=1e-6)
     s = rate_gate.moves_summary(rate_gate.load_table(str(tmp_path), max_motion_number=2.3), 2.3)
     assert s == {"moving_bins": [0, 2], "bins": 3, "motion_number": round(50 / 24, 4),
-                 "success": round(24 / 30, 4), "max_motion_number": 2.3, "close_bins": []}
+                 "success": round(24 / 30, 4), "max_motion_number": 2.3, "min_z": 0.0, "close_bins": []}
     assert rate_gate.motion_number_text(s["motion_number"]) == "2.083"
 
 
@@ -202,6 +203,50 @@ def test_a_table_where_nothing_succeeds_predicts_no_motion_number():
     s = rate_gate.moves_summary(t)
     assert s["motion_number"] is None and s["success"] == 0.0 and s["moving_bins"] == [0]
     assert rate_gate.motion_number_text(s["motion_number"]) == "-"
+
+
+def test_min_z_keeps_only_the_moves_the_table_shows_to_pay(tmp_path):
+    """``vags.gate_min_z``: a bin of positive move value within that many standard errors of 0
+    grasps directly (its value negated, as the cap drops a bin); bins clear of their noise, bins
+    that never moved and a bin of one state (error 0) keep their choice; applied before the cap
+    when the table loads, and recorded in the summary eval.py writes."""
+    t = dataclasses.replace(_three_bins((0.3, 0.01, 0.2)), move_value_se=(0.02, 0.02, 0.15))
+    assert rate_gate.significant(t, 0.0) is t
+    assert rate_gate.significant(t, 1.0).move_value == pytest.approx((0.3, -0.01, 0.2))  # 0.2 > 1 x 0.15
+    assert rate_gate.significant(t, 2.0).move_value == pytest.approx((0.3, -0.01, -0.2))  # 0.2 < 2 x 0.15
+    # Exactly the positive bins that close_bins names at the same z.
+    assert rate_gate.close_bins(t, 2.0) == [1, 2]
+    neg = dataclasses.replace(t, move_value=(0.3, -0.01, 0.2), move_value_se=(0.0, 0.02, 0.15))
+    assert rate_gate.significant(neg, 2.0).move_value == pytest.approx((0.3, -0.01, -0.2))
+    # The decision grasps directly in the dropped bins.
+    p = jnp.asarray([0.1, 0.5, 0.9])
+    score = gate_score("rate", None, p, None, gate_table=jnp.asarray(rate_gate.significant(t, 1.0).array()))
+    assert (~(score > 0)).tolist() == [True, False, True]
+    # Loaded: the noise first, then the cap on what is left.  Without min_z, the cap 2.3 drops
+    # bin 1 (the smallest gain) and keeps bins 0 and 2 (capped's test above); with min_z 2 bins
+    # 1 and 2 are gone before the cap, which then has nothing left to drop.
+    rate_gate.save(str(tmp_path), t, {"networks": "stage3 step 8"})
+    np.testing.assert_allclose(rate_gate.load(str(tmp_path), max_motion_number=2.3)[1], [0.3, -0.01, 0.2], rtol=1e-6)
+    np.testing.assert_allclose(rate_gate.load(str(tmp_path), max_motion_number=2.3, min_z=2.0)[1],
+                               [0.3, -0.01, -0.2], rtol=1e-6)
+    s = rate_gate.moves_summary(rate_gate.load_table(str(tmp_path), min_z=2.0), 0.0, 2.0)
+    assert s["moving_bins"] == [0] and s["min_z"] == 2.0 and s["motion_number"] == round(40 / 21, 4)
+
+
+def test_min_z_on_a_table_without_standard_errors_says_what_to_do(tmp_path):
+    t = _three_bins()  # no move_value_se: measured before the errors were recorded
+    assert rate_gate.significant(t, 0.0) is t
+    with pytest.raises(rate_gate.NoStandardErrors, match="gate_measure --run RUN, or drop vags.gate_min_z"):
+        rate_gate.significant(t, 2.0)
+    rate_gate.save(str(tmp_path), t, {"networks": "stage3 step 8"})
+    with pytest.raises(ValueError, match="no standard errors"):
+        rate_gate.load(str(tmp_path), min_z=2.0)
+
+
+@pytest.mark.parametrize("bad", [-0.5, 11.0, float("nan")])
+def test_min_z_must_be_a_number_of_standard_errors(bad):
+    with pytest.raises(ValueError, match=r"vags.gate_min_z must be (in \[0, 10\] standard errors|a finite number)"):
+        C.replace(C.tiny(), **{"vags.gate_min_z": bad})
 
 
 @pytest.mark.parametrize("bad", [0.5, -1.0, 11.0, float("nan")])
@@ -278,8 +323,9 @@ def test_eval_py_loads_the_networks_with_the_set_cap_and_gdnet_pick(tmp_path, mo
     monkeypatch.setattr(requests.os.path, "exists", lambda path: True)
     args = SimpleNamespace(run=str(tmp_path), step=None, networks=None)
     requests._run_config(args, "vags", {"vags.max_motion_number": 1.3, "vags.stage3_gdnet_pick": "last",
-                                        "vags.close_score": "success"})
+                                        "vags.close_score": "success", "vags.gate_min_z": 2.0})
     assert seen[-1].vags.max_motion_number == 1.3 and seen[-1].vags.stage3_gdnet_pick == "last"
+    assert seen[-1].vags.gate_min_z == 2.0
     assert seen[-1].vags.close_score == "q"  # read where the networks are used, not where they load
     requests._run_config(args, "vags", {"benchmark.rounds": 3})
     assert seen[-1] is None  # the run's own config

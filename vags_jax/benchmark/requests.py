@@ -259,15 +259,15 @@ def prepare_compare(args) -> SimpleNamespace:
 
 
 # --set fields that change what rundir.load_vags returns (the decision's GDNets and gate table).
-LOAD_FIELDS = ("vags.stage3_gdnet_pick", "vags.max_motion_number", "vags.cap_split")
+LOAD_FIELDS = ("vags.stage3_gdnet_pick", "vags.max_motion_number", "vags.cap_split", "vags.gate_min_z")
 
 
 def _run_config(args, policy, overrides=None):
     """The run's (or preset's) config and what the policy loads from the run -> (run_cfg,
     VAGS networks or None, GG-CNN params or None, GG-CNN's config or None).  The fields of
     ``LOAD_FIELDS`` in ``overrides`` reach the VAGS networks as they load: the GDNet picked
-    (``vags.stage3_gdnet_pick``) and the cap on the gate table's moves (``vags.max_motion_number``,
-    ``vags.cap_split``)."""
+    (``vags.stage3_gdnet_pick``) and what the gate table's moves keep (``vags.gate_min_z``,
+    ``vags.max_motion_number``, ``vags.cap_split``)."""
     networks = ggcnn_params = None
     ggcnn_cfg = None
     if args.run:

@@ -785,6 +785,15 @@ class Vags:
       about 0.02-0.04 below the benchmark's on average (bench/RESULTS.md, "Viewpoints that
       pay", twentieth and twenty-seventh to twenty-ninth looks).  Read when the table is loaded
       (eval.py, predict): ``--set`` it on any run.
+    gate_min_z: the "rate" gate moves only in the bins where its table shows a move to pay: a
+      bin whose move value is positive but within ``gate_min_z`` standard errors of 0 (over the
+      bin's states, RUN/gate.json "move_value_se") grasps directly (``rate_gate.significant``;
+      applied before ``max_motion_number``).  0 (default): every bin of positive value moves, as
+      before this field.  Whether such a bin moves is otherwise the sign of a number within the
+      table's noise, and it decides whether a training meets the motion goals or the margin
+      (bench/RESULTS.md, "Viewpoints that pay", thirty-fourth and forty-first looks).  Read when
+      the table is loaded (eval.py, predict): ``--set`` it on any run whose table records the
+      errors.
     cap_split: under ``max_motion_number``, take the moving bins by success gain and split the
       next one, its lowest-p_direct states moving as far as the cap allows
       (``rate_gate.split_capped``), from the states the table was measured on
@@ -819,6 +828,7 @@ class Vags:
     stage3_gdnet_pick: str = "rate"
     close_region: str = "seen"
     max_motion_number: float = 0.0
+    gate_min_z: float = 0.0
     cap_split: bool = True
     train_ggcnn: bool = False
     gate_estimate: str = "grasp"
@@ -866,6 +876,7 @@ class Vags:
         _check(self.max_motion_number == 0.0 or 1.0 <= self.max_motion_number <= 10.0,
                f"Vags.max_motion_number must be 0 (no cap) or within [1, 10] (a grasp is one motion, a move "
                f"and a grasp two), got {self.max_motion_number}")
+        _within("Vags.gate_min_z", self.gate_min_z, 0.0, 10.0, unit="standard errors")
 
 
 # ----------------------------------------------------------------------------- GG-CNN

@@ -14,6 +14,10 @@ By default they are reported beside the decision; with ``count_lost`` (``gate_ta
 each one counts as a pick lost, so the gate maximises net picks per second (picks minus objects
 knocked off) and a move must also pay for the objects it knocks off.
 
+``vags.gate_min_z`` keeps, when the table is loaded, only the moves its states show to pay
+(``significant``): a bin whose move value is positive but within that many standard errors of 0
+grasps directly, so the table's noise no longer decides whether the gate moves there.
+
 ``vags.max_motion_number`` caps the moves when the table is loaded (``capped``): moving bins are
 dropped, the smallest success gain first, until the motion number the table predicts is at most
 the cap (the issue's goal is a motion number below 1.35; picks per hour alone may move more).
@@ -137,6 +141,30 @@ def close_bins(table: GateTable, z: float = 2.0) -> list:
         return []
     v, se = np.abs(np.asarray(table.move_value, np.float64)), np.asarray(table.move_value_se, np.float64)
     return [int(k) for k in np.flatnonzero(v < z * se)]
+
+
+class NoStandardErrors(ValueError):
+    """A table without its bins' standard errors (measured before they were recorded), asked for
+    ``significant`` moves."""
+
+
+def significant(table: GateTable, min_z: float) -> GateTable:
+    """``table`` with the moves its states do not show to pay dropped: a bin whose move value is
+    positive but within ``min_z`` of its standard errors of 0 (``move_value_se``; the positive
+    bins of ``close_bins(table, min_z)``) grasps directly, its value negated as ``capped`` drops
+    a bin (0: the table as it is).  A bin of one state (error 0) keeps its choice.  Raises ``NoStandardErrors`` for a table without errors and
+    ``min_z`` > 0."""
+    if min_z <= 0:
+        return table
+    if not table.move_value_se:
+        raise NoStandardErrors("this run's gate table has no standard errors (it was measured before they were "
+                               "recorded), so vags.gate_min_z cannot tell which moves are within its noise: measure "
+                               "it again with python -m vags_jax.stages.gate_measure --run RUN, or drop "
+                               "vags.gate_min_z")
+    value = np.asarray(table.move_value, np.float64)
+    se = np.asarray(table.move_value_se, np.float64)
+    drop = (value > 0) & (value < min_z * se)
+    return dataclasses.replace(table, move_value=tuple(float(v) for v in np.where(drop, -value, value)))
 
 
 def motion_number(table: GateTable, moves) -> float:
@@ -274,18 +302,18 @@ def read_states(run_dir: str) -> Optional[dict]:
         return {k: f[k] for k in f.files}
 
 
-def moves_summary(table: GateTable, max_motion_number: float = 0.0) -> dict:
-    """What the decision plays from ``table`` (already ``capped``): the bins it moves in
-    (indices from the lowest p_direct), of how many, the motion number and success the table
-    predicts for that choice, the cap, and the bins whose choice is within two standard errors
-    (``close_bins``)."""
+def moves_summary(table: GateTable, max_motion_number: float = 0.0, min_z: float = 0.0) -> dict:
+    """What the decision plays from ``table`` (already ``significant`` and ``capped``): the bins
+    it moves in (indices from the lowest p_direct), of how many, the motion number and success
+    the table predicts for that choice, the cap, ``min_z``, and the bins whose choice is within
+    two standard errors (``close_bins``)."""
     moves = np.asarray(table.move_value) > 0
     n = np.asarray(table.states, np.float64)
     success = float(np.sum(n * np.where(moves, table.moved, table.direct)) / np.sum(n))
     mn = motion_number(table, moves)  # None where no state succeeded: JSON has no inf
     return {"moving_bins": [int(k) for k in np.flatnonzero(moves)], "bins": int(moves.size),
             "motion_number": round(mn, 4) if np.isfinite(mn) else None, "success": round(success, 4),
-            "max_motion_number": float(max_motion_number), "close_bins": close_bins(table)}
+            "max_motion_number": float(max_motion_number), "min_z": float(min_z), "close_bins": close_bins(table)}
 
 
 def moves_at(table: GateTable, p) -> np.ndarray:
@@ -339,8 +367,9 @@ def read(run_dir: str) -> Optional[dict]:
 
 def load_table(run_dir: str, networks: Optional[str] = None, gdnet: Optional[str] = None,
                close_gdnet: Optional[str] = None, max_motion_number: float = 0.0,
-               split: bool = True) -> Optional[GateTable]:
-    """RUN/gate.json -> its ``GateTable``, capped at ``max_motion_number`` (0: no cap): by
+               split: bool = True, min_z: float = 0.0) -> Optional[GateTable]:
+    """RUN/gate.json -> its ``GateTable``, its moves within ``min_z`` standard errors of 0
+    dropped (``significant``; 0: none), then capped at ``max_motion_number`` (0: no cap): by
     ``split_capped`` when ``split`` and RUN/``STATES_FILE`` holds the states it was fit on, else
     by whole bins (``capped``); None
     when the run has none, or when ``networks`` (e.g. "stage3 step 80") is not the networks it
@@ -357,7 +386,7 @@ def load_table(run_dir: str, networks: Optional[str] = None, gdnet: Optional[str
         return None
     if close_gdnet is not None and d.get("close_gdnet", kept) != close_gdnet:
         return None
-    table = from_dict(d)
+    table = significant(from_dict(d), min_z)
     if split and max_motion_number > 0:
         states = read_states(run_dir)
         if states_match(table, states):
@@ -394,10 +423,10 @@ def from_dict(d: dict) -> GateTable:
 
 def load(run_dir: str, networks: Optional[str] = None, gdnet: Optional[str] = None,
          close_gdnet: Optional[str] = None, max_motion_number: float = 0.0,
-         split: bool = True) -> Optional[np.ndarray]:
+         split: bool = True, min_z: float = 0.0) -> Optional[np.ndarray]:
     """``load_table``'s table as the (2, K) float32 array the decision reads (``GateTable.array``);
     None where it gives None."""
-    table = load_table(run_dir, networks, gdnet, close_gdnet, max_motion_number, split)
+    table = load_table(run_dir, networks, gdnet, close_gdnet, max_motion_number, split, min_z)
     return None if table is None else table.array()
 
 

@@ -265,7 +265,7 @@ def load_vags(run_dir: str, cfg: Optional[Config] = None, step: Optional[int] = 
     if os.path.isdir(ggcnn_stage.ggcnn_dir(run_dir)):
         gg, _ = ggcnn_stage.load_ggcnn(run_dir)
     table = rate_gate.load(run_dir, source, gd_source, close_source or gd_source, cfg.vags.max_motion_number,
-                           cfg.vags.cap_split)
+                           cfg.vags.cap_split, cfg.vags.gate_min_z)
     return VagsNetworks(gdnet=gd, vanet=va, ggcnn=gg, q_threshold=jnp.asarray(thr, jnp.float32), success=su,
                         calibration=cal, gate_table=table,
                         close_gdnet=close, source=source, gdnet_source=gd_source, close_gdnet_source=close_source,
