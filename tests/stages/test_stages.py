@@ -890,3 +890,29 @@ def test_ggcnn_is_needed_only_by_its_planner_or_when_asked(tmp_path):
     params = pipeline.ggcnn_params(run, cfg)
     assert jax.tree.leaves(params) and all(np.array_equal(a, b) for a, b in zip(
         jax.tree.leaves(params), jax.tree.leaves(ggcnn_stage.load_ggcnn(run)[0])))
+
+
+def test_a_run_kit_loads_the_same_networks_and_gate_table(runs, tmp_path, capsys):
+    """``bench/run_kit.py`` copies what eval.py loads of a run (config, gate table and its
+    states, stages 2-3's networks at the steps the table names or each stage's latest; no
+    stage-1 carry, replay or worlds): the kit loads the run's networks and table exactly, and a
+    second kit into the same folder is refused in one line."""
+    sys.path.insert(0, os.path.join(ROOT, "bench"))
+    import run_kit
+
+    full, _ = runs
+    kit = str(tmp_path / "kit")
+    assert run_kit.main(["--run", full, "--out", kit]) == 0
+    got = json.loads(capsys.readouterr().out)
+    assert got["steps"] == {"stage2": [checkpoint.checkpoint_steps(pipeline.networks_dir(full, "stage2"))[-1]],
+                            "stage3": [4]}
+    assert not os.path.exists(os.path.join(kit, checkpoint.CHECKPOINT_DIR))
+    assert not os.path.exists(os.path.join(kit, "stage3", checkpoint.CHECKPOINT_DIR))  # stage 3's carry
+    a, b = pipeline.load_vags(full), pipeline.load_vags(kit)
+    assert (a.source, a.gdnet_source, a.close_source) == (b.source, b.gdnet_source, b.close_source)
+    for name in ("gdnet", "vanet", "success", "calibration", "close_gdnet", "q_threshold"):
+        x, y = getattr(a, name), getattr(b, name)
+        assert (x is None and y is None) or checkpoint.tree_equal(x, y), name
+    np.testing.assert_array_equal(np.asarray(a.gate_table), np.asarray(b.gate_table))
+    assert run_kit.main(["--run", full, "--out", kit]) == 1
+    assert "exists: give a new folder" in capsys.readouterr().err
