@@ -80,3 +80,25 @@ def test_gate_cap_splits_a_bin_where_the_states_allow(tmp_path, capsys):
     assert gate_cap.main([path, "--caps", "1.7", "--whole-bins"]) == 0
     assert f"| {path} | [0, 1] | 2.000 | 100.0 | 100.0 | | [] | 2.000 | 50.0 | 50.0 |" in \
         capsys.readouterr().out.replace(" nan |", " |").replace("|  |", "| |")
+
+
+def test_gate_cap_drops_the_moves_within_the_noise_first(tmp_path, capsys):
+    """--min-z Z: the moves within Z standard errors of 0 go before any cap, as eval.py's
+    vags.gate_min_z; a table without errors is refused in one line (exit 2), a bad Z too."""
+    # The first test's table with errors: bin 1's +0.01 is within 2 x 0.02 of 0, bin 0's is not.
+    t = rate_gate.GateTable(edges=(0.5,), states=(10, 10), direct=(0.4, 0.7), moved=(0.9, 0.8),
+                            extra_seconds=(1.0, 1.0), rate=0.1, move_value=(0.3, 0.01), move_value_se=(0.02, 0.02))
+    path = rate_gate.save(str(tmp_path), t, {"networks": "stage3 step 8"})
+    assert gate_cap.main([path, "--caps", "2.2", "--min-z", "2"]) == 0
+    # Bin 1 is dropped already: 30 motions / 16 grasped = 1.875 at 80 % with or without the cap.
+    assert f"| {path} | [0] | 1.875 | 80.0 | [0] | 1.875 | 80.0 |" in capsys.readouterr().out
+    assert gate_cap.main([path, "--caps", "2.2", "--min-z", "0.4"]) == 0  # 0.01 is above 0.4 x 0.02
+    assert f"| {path} | [0, 1] | 2.353 | 85.0 |" in capsys.readouterr().out
+    old = tmp_path / "old"
+    old.mkdir()
+    bare = rate_gate.save(str(old), rate_gate.GateTable(**{**t.__dict__, "move_value_se": ()}), {})
+    assert gate_cap.main([bare, "--min-z", "2"]) == 2
+    assert "no standard errors" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as e:
+        gate_cap.main([path, "--min-z", "-1"])
+    assert e.value.code == 2

@@ -10,7 +10,6 @@ RUN_DIR (default: this folder's s57/) and the folder beside it (vags_alone.txt).
 (1) The gpu preset takes vags.gate_min_z=2 only if, of the 15 goal checks (five goals x seeds
     11-13, against the one ablation), VAGS with it meets strictly more than VAGS without.
 """
-import json
 import os
 import re
 import subprocess
