@@ -152,8 +152,8 @@ def significant(table: GateTable, min_z: float) -> GateTable:
     """``table`` with the moves its states do not show to pay dropped: a bin whose move value is
     positive but within ``min_z`` of its standard errors of 0 (``move_value_se``; the positive
     bins of ``close_bins(table, min_z)``) grasps directly, its value negated as ``capped`` drops
-    a bin (0: the table as it is).  A bin of one state (error 0) keeps its choice.  Raises ``NoStandardErrors`` for a table without errors and
-    ``min_z`` > 0."""
+    a bin (0: the table as it is).  A bin of one state (error 0) keeps its choice.  Raises
+    ``NoStandardErrors`` for a table without errors and ``min_z`` > 0."""
     if min_z <= 0:
         return table
     if not table.move_value_se:
@@ -161,10 +161,9 @@ def significant(table: GateTable, min_z: float) -> GateTable:
                                "recorded), so vags.gate_min_z cannot tell which moves are within its noise: measure "
                                "it again with python -m vags_jax.stages.gate_measure --run RUN, or drop "
                                "vags.gate_min_z")
-    value = np.asarray(table.move_value, np.float64)
-    se = np.asarray(table.move_value_se, np.float64)
-    drop = (value > 0) & (value < min_z * se)
-    return dataclasses.replace(table, move_value=tuple(float(v) for v in np.where(drop, -value, value)))
+    close = set(close_bins(table, min_z))
+    return dataclasses.replace(table, move_value=tuple(-float(v) if k in close and v > 0 else float(v)
+                                                       for k, v in enumerate(table.move_value)))
 
 
 def motion_number(table: GateTable, moves) -> float:
