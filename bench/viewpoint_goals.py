@@ -212,6 +212,23 @@ def goal_met(kind: str, value: float, bound: float) -> bool:
     return value < bound
 
 
+def checks_met(run: str, policy: str, ablation: str, seeds) -> tuple[int, int] | None:
+    """(goal checks met, checks made) of GOALS for ``policy`` against ``ablation`` over ``seeds``,
+    from ``RUN/seed<S>/eval_<policy>.json``: one check per goal and seed; None where a report is
+    missing."""
+    met = total = 0
+    for s in seeds:
+        x = read_report(os.path.join(run, f"seed{s}", f"eval_{policy}.json"))
+        y = read_report(os.path.join(run, f"seed{s}", f"eval_{ablation}.json"))
+        if x is None or y is None:
+            return None
+        a, b = row(x), row(y)
+        for _, figure, kind, bound, _ in GOALS:
+            total += 1
+            met += goal_met(kind, figure(a, b), bound)
+    return met, total
+
+
 def goals_table(rows: dict, a: str, b: str, seeds: list) -> list:
     """Markdown lines: each goal's figure per seed (policy a against policy b) and whether
     every seed with both reports meets it; then lines naming the goals missed, and those not

@@ -68,6 +68,10 @@ def test_goals_verdicts_per_seed_at_their_bounds(tmp_path, capsys):
     assert "| at one object, moves on at most 10 % of attempts | 10.0 | 11.0 (missed) | no |" in out
     assert out.rstrip().endswith("at one object, moves on at most 10 % of attempts")
     assert viewpoint_goals.main([str(run), "--goals", "--policies", "vags"]) == 2
+    # One check per goal and seed: seed 11 meets four of five, seed 12 only the motion number.
+    assert viewpoint_goals.checks_met(str(run), "vags", "vags-no-viewpoint", (11, 12)) == (5, 10)
+    assert viewpoint_goals.checks_met(str(run), "vags", "vags-no-viewpoint", (11,)) == (4, 5)
+    assert viewpoint_goals.checks_met(str(run), "vags", "vags-no-viewpoint", (11, 13)) is None
     good = tmp_path / "good"
     _write(str(good / "seed11" / "eval_vags.json"), _goal_report(0.9, 0.05, 90, 0.6, 1.2), gz=False)
     _write(str(good / "seed11" / "eval_vags-no-viewpoint.json"), _goal_report(0.8, 0.0, 80, 0.5, 1.1), gz=False)

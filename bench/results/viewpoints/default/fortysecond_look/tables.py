@@ -27,19 +27,9 @@ ABLATION = "vags-no-viewpoint"
 
 
 def goals_met(run, policy):
-    """(checks met, checks measured) of viewpoint_goals.GOALS for ``policy`` against the ablation
-    over SEEDS; None where a report is missing."""
-    met = total = 0
-    for s in SEEDS:
-        x = viewpoint_goals.read_report(os.path.join(run, f"seed{s}", f"eval_{policy}.json"))
-        y = viewpoint_goals.read_report(os.path.join(run, f"seed{s}", f"eval_{ABLATION}.json"))
-        if x is None or y is None:
-            return None
-        a, b = viewpoint_goals.row(x), viewpoint_goals.row(y)
-        for _, figure, kind, bound, _ in viewpoint_goals.GOALS:
-            total += 1
-            met += viewpoint_goals.goal_met(kind, figure(a, b), bound)
-    return met, total
+    """(checks met, checks measured) for ``policy`` against the ablation over SEEDS; None where a
+    report is missing."""
+    return viewpoint_goals.checks_met(run, policy, ABLATION, SEEDS)
 
 
 def main(run):
