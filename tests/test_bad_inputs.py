@@ -1301,6 +1301,17 @@ def test_predict_simulator_commands_check_their_inputs(argv, msg, tmp_path, caps
     assert code == 2 and line.startswith("predict ") and re.search(msg, line), line
 
 
+@pytest.mark.skipif(jax.default_backend() == "gpu", reason="the Warp renderer runs on a GPU")
+@pytest.mark.parametrize("command", [["write-frames", "--out", "{tmp}/f"], ["execute", "--grasp", "{tmp}/g.json"]])
+def test_predict_simulator_commands_refuse_the_warp_renderer_off_a_gpu(command, tmp_path, capsys):
+    """A run trained on a GPU (the gpu presets render with Warp) simulated on a CPU: one line naming
+    --set camera.renderer=jax, before anything is built (it was a traceback from the renderer)."""
+    _write_text(tmp_path / "g.json", {"decision": "grasp", "grasp": {"position": [0, 0, 0.05], "yaw": 0}})
+    argv = [a.format(tmp=tmp_path) for a in command] + ["--config", "tiny", "--set", "camera.renderer=warp"]
+    code, line = _cli(_predict_main, argv, capsys)
+    assert code == 2 and line.startswith("predict ") and "--set camera.renderer=jax" in line, line
+
+
 def test_predict_exit_code_2_one_line(frame_files, vags_run, tmp_path):
     """As a real command: exit code 2, one stderr line, no traceback."""
     argv = _predict_argv(vags_run, frame_files, {"--depth": str(tmp_path / "none.png")})

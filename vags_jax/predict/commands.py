@@ -40,7 +40,7 @@ from vags_jax import cli
 from vags_jax import config as C
 from vags_jax.benchmark.images import save_png
 from vags_jax.env import VagsEnv
-from vags_jax.perception import camera, heightmap
+from vags_jax.perception import camera, heightmap, render
 from vags_jax.predict import frames
 from vags_jax.predict.policy import (
     Frame,
@@ -161,6 +161,7 @@ def _sim_config(args):
     n = cfg.scene.max_objects if args.objects is None else args.objects
     if n > cfg.scene.max_objects:
         raise ValueError(f"--objects {n} exceeds scene.max_objects = {cfg.scene.max_objects}")
+    render.check_renderer(cfg.camera)  # a gpu run's Warp renderer on a machine without one
     return cfg, n
 
 
