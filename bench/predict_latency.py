@@ -13,6 +13,10 @@ robot makes: the frame's checks (numpy), the heightmaps, GDNet / VANet / the suc
 gate and the grasp or viewpoint, back on the host as a JSON-ready dict.  ``--close`` also
 times the decision with the close frame taken at the viewpoint (the close-view planner on top).
 
+The frame is drawn by the run's renderer, or by the JAX ray caster where the run's is Warp and
+this machine has no NVIDIA GPU (a `gpu` run timed on a CPU; the report's ``frame_renderer``):
+the policy renders nothing, so its timing does not depend on it.
+
 ``--config`` makes a run with random networks in a temporary directory: the latency does not
 depend on the weights.  Prints one JSON object (median, p90, min, max in ms; the device);
 ``--out`` writes it too.
@@ -48,6 +52,14 @@ def random_run(cfg, directory: str) -> str:
     return directory
 
 
+def frame_renderer(cfg) -> str:
+    """The renderer that draws the input frame: the run's, except the Warp renderer off a GPU, where
+    the JAX ray caster draws it (the policy itself renders nothing, so its timing is the same)."""
+    import jax
+
+    return "jax" if cfg.camera.renderer == "warp" and jax.default_backend() != "gpu" else cfg.camera.renderer
+
+
 def bench_frame(cfg, width: int, height: int, objects: int, seed: int):
     """(global Frame, a function pose -> close Frame) of a hand-placed scene, rendered at
     ``width`` x ``height`` with the default camera's focal length scaled to the width."""
@@ -61,7 +73,7 @@ def bench_frame(cfg, width: int, height: int, objects: int, seed: int):
 
     f = 618.62 * width / 640
     cam = C.replace(cfg, **{"camera.width": width, "camera.height": height, "camera.fx": f, "camera.fy": f,
-                            "camera.cx": None, "camera.cy": None})
+                            "camera.cx": None, "camera.cy": None, "camera.renderer": frame_renderer(cfg)})
     env = VagsEnv(cam)
     n = min(objects, cam.scene.max_objects)
     rng = np.random.default_rng(seed)
@@ -104,6 +116,8 @@ def main(argv=None) -> int:
     p.add_argument("--objects", type=int, default=3, help="blocks on the table (at most scene.max_objects)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--close", action="store_true", help="also time the decision with the close frame")
+    p.add_argument("--set", nargs="*", default=[], metavar="SECTION.FIELD=VALUE",
+                   help="overrides for the policy, as predict's --set (e.g. vags.local_planner=ggcnn)")
     p.add_argument("--out", default=None, help="write the JSON here too")
     args = p.parse_args(argv)
     if (args.run is None) == (args.config is None):
@@ -122,14 +136,15 @@ def main(argv=None) -> int:
     cfg = checkpoint.load_config(run)
     frame, frame_at = bench_frame(cfg, args.width, args.height, args.objects, args.seed)
     t = time.perf_counter()
-    policy = FramePolicy(run)
+    overrides = C.parse_overrides(args.set)
+    policy = FramePolicy(run, overrides or None)
     load_s = time.perf_counter() - t
     t = time.perf_counter()
     first = policy.decide(frame)
     first_ms = 1000 * (time.perf_counter() - t)
     report = {"run": run, "networks": policy.source, "device": str(jax.devices()[0]), "frame": [args.width, args.height],
-              "trunk": cfg.net.trunk, "dtype": cfg.net.dtype, "heightmap_px": cfg.workspace.heightmap_px,
-              "gate": cfg.vags.gate, "load_s": round(load_s, 2), "first_decision_ms": round(first_ms, 1),
+              "trunk": policy.cfg.net.trunk, "dtype": policy.cfg.net.dtype, "heightmap_px": cfg.workspace.heightmap_px,
+              "gate": cfg.vags.gate, "overrides": args.set, "frame_renderer": frame_renderer(cfg), "load_s": round(load_s, 2), "first_decision_ms": round(first_ms, 1),
               "decision": timed(lambda: policy.decide(frame), args.repeats),
               "checks_only": timed(lambda: check_frame(frame, policy.cfg.workspace), args.repeats)}
     if args.close:
