@@ -18,7 +18,8 @@ does (``rate_gate.significant``; tables that record their errors only).
 
 The table's predictions are on its own states (fresh piles, GDNet's first attempts); the
 benchmark's motion number ran 0.028 above them on average, up to 0.071, over 30 evaluations
-(bench/RESULTS.md, "twenty-seventh look").
+(bench/RESULTS.md, "twenty-seventh look"), and 0.055 (0.012-0.097) over 15 since the benchmark
+drops spilled piles again ("forty-second and forty-third looks").
 """
 from __future__ import annotations
 

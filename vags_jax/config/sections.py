@@ -782,8 +782,9 @@ class Vags:
       of its table where a move raises the picks per hour; with a cap it drops moving bins,
       the smallest success gain first, until the motion number its table predicts (motions per
       grasped object on the table's states) is at most the cap.  The table's prediction ran
-      about 0.02-0.04 below the benchmark's on average (bench/RESULTS.md, "Viewpoints that
-      pay", twentieth and twenty-seventh to twenty-ninth looks).  Read when the table is loaded
+      0.028 below the benchmark's on average (twenty-seventh look), and 0.055 (0.012-0.097)
+      since the benchmark drops spilled piles again (five trainings; bench/RESULTS.md,
+      "forty-second and forty-third looks").  Read when the table is loaded
       (eval.py, predict): ``--set`` it on any run.
     gate_min_z: the "rate" gate moves only in the bins where its table shows a move to pay: a
       bin whose move value is positive but within ``gate_min_z`` standard errors of 0 (over the
