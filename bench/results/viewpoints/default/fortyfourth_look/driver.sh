@@ -16,6 +16,10 @@
 #  (1) the gpu preset takes vags.gate_min_z=2 only if, over those trainings' goal checks (the
 #      issue's five goals x seeds 11-13 x trainings, each against its own ablation), VAGS with it
 #      meets strictly more than VAGS without; a tie or fewer: the option stays, off.
+#  (2) the default scenes' final reports (bench/results/viewpoints/default/seed<S>/, f41's since the
+#      thirty-second look, from before the benchmark's re-drop default) become s59's, whatever they
+#      show: its VAGS reports with vags.gate_min_z=2 if (1) adopts it, else its plain ones, and its
+#      ablation's.  s59 is named here, before any training, so that no result picks the run.
 # On ONE bare H100 or H200 after the wheels: about 9 minutes for the first training and its
 # evaluations (cold cache), 6 for each next one.
 # Poll: bash /root/src/bench/results/throughput/forward_needed/poll.sh 560 /root/res/machine_log.txt

@@ -9,6 +9,7 @@ the run; reads the run folders under TOP (default: this folder).
 (0) No verdict unless a training's table has such a bin and all three reports on every seed.
 (1) The gpu preset takes vags.gate_min_z=2 only if, over those trainings' goal checks (five goals x
     seeds 11-13 x trainings), VAGS with it meets strictly more than VAGS without.
+(2) s59's reports become the default scenes' final ones (which VAGS reports: by (1)).
 """
 import glob
 import os
@@ -49,10 +50,24 @@ def main(top):
         if close and plain is not None and z2 is not None:
             judged.append((os.path.basename(run), plain, z2))
     print("## The rule\n")
+    adopt = False
     if not judged:
         print("(0) no training has a moving bin within two standard errors of 0 and all its reports: no verdict; "
               "vags.gate_min_z stays 0.")
-        return
+    else:
+        adopt = verdict(judged)
+    final = os.path.join(top, "s59")
+    # The driver runs the -z2 reports only where the table has such a bin; elsewhere z=2 plays as the plain ones.
+    policy = "vags-z2" if adopt and viewpoint_goals.checks_met(final, "vags-z2", ABLATION, SEEDS) else "vags"
+    if viewpoint_goals.checks_met(final, policy, ABLATION, SEEDS) is None:
+        print(f"\n(2) s59 lacks its {policy} or {ABLATION} reports: the final reports stay f41's.")
+    else:
+        print(f"\n(2) the final reports at bench/results/viewpoints/default/seed<S>/ become s59's: "
+              f"eval_{policy}.json as eval_vags.json, and eval_{ABLATION}.json.")
+
+
+def verdict(judged) -> bool:
+    """Prints rule (1)'s table and verdict over the judged trainings; True where it adopts."""
     print("| training | VAGS: checks met | VAGS, vags.gate_min_z=2: checks met | of |\n|---|---:|---:|---:|")
     for name, plain, z2 in judged:
         print(f"| {name} | {plain[0]} | {z2[0]} | {plain[1]} |")
@@ -61,6 +76,7 @@ def main(top):
     adopt = b > a
     print(f"\n(1) {'met' if adopt else 'not met'}: the gpu preset {'takes' if adopt else 'does not take'} "
           "vags.gate_min_z=2.")
+    return adopt
 
 
 if __name__ == "__main__":
