@@ -2,6 +2,7 @@
 """The issue "Viewpoints that pay"'s goals from ``eval.py`` reports: one row per policy and seed.
 
     python bench/viewpoint_goals.py bench/results/viewpoints/default [--policies vags vags-no-viewpoint]
+    python bench/viewpoint_goals.py RUN1 --across RUN2 RUN3   # paired over each training's seeds, and over all
 
 Reads ``DIR/seed<S>/eval_<policy>.json`` (or ``.json.gz``) and prints a Markdown table: overall success and
 clearing, the same pooled over groups 6-10 (successes over attempts, cleared rounds over
@@ -263,14 +264,55 @@ def goals_table(rows: dict, a: str, b: str, seeds: list) -> list:
     return lines
 
 
+def seeds_in(folder: str) -> list:
+    """The seeds S of ``FOLDER/seed<S>/``, in order."""
+    return sorted(int(re.sub(r"\D", "", os.path.basename(d))) for d in glob.glob(os.path.join(folder, "seed*")))
+
+
+def across_table(folders: list, a: str, b: str) -> list:
+    """Markdown lines: per folder (one training each), policy a against policy b paired round by
+    round over all its seeds' rounds (6-10 success, 6-10 clearing, clearing over every group),
+    then a row "all" pooling every folder's rounds; a folder whose reports cannot all be paired
+    is named and left out of "all"."""
+    lines = [f"| training | paired 6-10 rounds | 6-10 success: {a} - {b} | 6-10 clearing | all rounds: clearing |",
+             "|---|---:|---:|---:|---:|"]
+    fmt = lambda v: f"{100 * v[0]:+.1f} ± {100 * v[1]:.1f}"  # noqa: E731
+    clear = lambda v: f"{100 * v[2]:+.1f} ± {100 * v[3]:.1f}"  # noqa: E731
+    pooled = []
+    for folder in folders:
+        pairs = [(read_report(os.path.join(folder, f"seed{s}", f"eval_{a}.json")),
+                  read_report(os.path.join(folder, f"seed{s}", f"eval_{b}.json"))) for s in seeds_in(folder)]
+        pairs = [(x, y) for x, y in pairs if x is not None and y is not None]
+        mid, every = (paired_rounds_pooled(pairs, 6, 10), paired_rounds_pooled(pairs, 1, 10)) if pairs else (None, None)
+        if mid is None or every is None:
+            lines.append(f"| {folder} | not paired (missing reports, no per-round outcomes or other scenes) | | | |")
+            continue
+        pooled += pairs
+        lines.append(f"| {folder} | {mid[4]} | {fmt(mid)} | {clear(mid)} | {clear(every)} |")
+    if len(pooled) and len(folders) > 1:
+        mid, every = paired_rounds_pooled(pooled, 6, 10), paired_rounds_pooled(pooled, 1, 10)
+        lines.append(f"| all | {mid[4]} | {fmt(mid)} | {clear(mid)} | {clear(every)} |")
+    lines.append("(paired round by round on the same scenes, every seed of a training pooled; ± one standard error)")
+    return lines
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("dir", help="folder with seed<S>/eval_<policy>.json")
+    p.add_argument("--across", nargs="+", default=None, metavar="DIR",
+                   help="more trainings' folders: print only the first two policies paired over each folder's "
+                        "rounds and over all of them (DIR first)")
     p.add_argument("--policies", nargs="+", default=["vags", "vags-no-viewpoint"])
     p.add_argument("--goals", action="store_true", help="also the issue's goals for the first policy against the "
                    "second, per seed")
     args = p.parse_args(argv)
-    seeds = sorted(int(re.sub(r"\D", "", os.path.basename(d))) for d in glob.glob(os.path.join(args.dir, "seed*")))
+    if args.across is not None:
+        if len(args.policies) < 2:
+            print("--across compares two policies: give --policies VAGS ABLATION", file=sys.stderr)
+            return 2
+        print("\n".join(across_table([args.dir] + args.across, *args.policies[:2])))
+        return 0
+    seeds = seeds_in(args.dir)
     rows, reports = {}, {}
     for pol in args.policies:
         for s in seeds:

@@ -151,6 +151,30 @@ def test_gains_paired_round_by_round_with_their_standard_errors(tmp_path, capsys
     assert "paired round by round" not in capsys.readouterr().out
 
 
+def test_paired_across_trainings_and_over_all_of_them(tmp_path, capsys):
+    import viewpoint_goals
+
+    # Two trainings, each seeds 11 and 13 as in the test above (8 paired rounds: success +5.5 ± 4.5,
+    # clearing +0.0 ± 26.7; one group, so "all rounds" is the same).  Pooled: 16 rounds, the same
+    # deviations four times: success sum of squares 0.22764, variance 0.015176, standard error
+    # 0.1232 / 4 = 0.0308; clearing variance 8/15, standard error 0.7303 / 4 = 0.1826.  A third
+    # folder lacks its ablation: named, and left out of "all".
+    folders = [tmp_path / "t1", tmp_path / "t2", tmp_path / "t3"]
+    for folder in folders[:2]:
+        for seed in (11, 13):
+            _write(str(folder / f"seed{seed}" / "eval_vags.json"), _round_report([6, 6, 8, 8], [6, 6, 6, 5]), gz=False)
+            _write(str(folder / f"seed{seed}" / "eval_vags-no-viewpoint.json"),
+                   _round_report([6, 7, 8, 9], [6, 5, 6, 6]), gz=True)
+    _write(str(folders[2] / "seed11" / "eval_vags.json"), _round_report([6, 6], [6, 6]), gz=False)
+    assert viewpoint_goals.main([str(folders[0]), "--across"] + [str(f) for f in folders[1:]]) == 0
+    out = capsys.readouterr().out
+    assert f"| {folders[0]} | 8 | +5.5 ± 4.5 | +0.0 ± 26.7 | +0.0 ± 26.7 |" in out
+    assert f"| {folders[1]} | 8 | +5.5 ± 4.5 | +0.0 ± 26.7 | +0.0 ± 26.7 |" in out
+    assert f"| {folders[2]} | not paired" in out
+    assert "| all | 16 | +5.5 ± 3.1 | +0.0 ± 18.3 | +0.0 ± 18.3 |" in out
+    assert viewpoint_goals.main([str(folders[0]), "--across", str(folders[1]), "--policies", "vags"]) == 2
+
+
 def _loss_report(rounds, extra=1):
     """A report of one 6-object group whose rounds are (attempts, successes, remaining, viewpoints,
     lost_after_move, lost_at_start) tuples, with an attempt budget of 2k + extra."""
