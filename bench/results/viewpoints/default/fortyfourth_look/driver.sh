@@ -20,8 +20,11 @@
 #      thirty-second look, from before the benchmark's re-drop default) become s59's, whatever they
 #      show: its VAGS reports with vags.gate_min_z=2 if (1) adopts it, else its plain ones, and its
 #      ablation's.  s59 is named here, before any training, so that no result picks the run.
-# On ONE bare H100 or H200 after the wheels: about 9 minutes for the first training and its
-# evaluations (cold cache), 6 for each next one.
+# Last (SWEEP=0 skips it; about 150 s): s59's Fig. 6 sweep, seed 11, 20 rounds a group, 11
+# thresholds of the rate gate's move value, as f41's (tables.py prints it and draws fig6.png).
+# On ONE bare H100 or H200 after the wheels: about 9.5 minutes for the first training and its
+# evaluations (cold cache), 6 for each next one, 2.5 for the sweep: about 24 in all; with less
+# device time left, SEEDS="59 60" (or "59") and/or SWEEP=0.
 # Poll: bash /root/src/bench/results/throughput/forward_needed/poll.sh 560 /root/res/machine_log.txt
 # then: (cd /root && tar czf - kit | split -b 15m - $OUT/kits.tgz.) ; ls -la $OUT
 S=/root/src
@@ -52,4 +55,8 @@ PY
   wait
   run kit_s$N python bench/run_kit.py --run $R --out /root/kit/s$N
 done
+if [ "${SWEEP:-1}" = 1 ] && [ -f /root/runs/s59/gate.json ]; then
+  run sweep_s59 python eval.py --run /root/runs/s59 --seed 11 --rounds 20 --threshold-sweep=-0.25:0.25:0.05 \
+    --cache-dir $C --out $RES/s59/sweep/eval_vags_r20.json
+fi
 echo "done $(date +%T)" >> $RES/machine_log.txt

@@ -10,8 +10,12 @@ the run; reads the run folders under TOP (default: this folder).
 (1) The gpu preset takes vags.gate_min_z=2 only if, over those trainings' goal checks (five goals x
     seeds 11-13 x trainings), VAGS with it meets strictly more than VAGS without.
 (2) s59's reports become the default scenes' final ones (which VAGS reports: by (1)).
+Then s59's Fig. 6 sweep (s59/sweep/eval_vags_r20_sweep.json, gzipped or not) as a table, drawn to
+fig6.png beside this file.
 """
 import glob
+import gzip
+import json
 import os
 import subprocess
 import sys
@@ -64,6 +68,28 @@ def main(top):
     else:
         print(f"\n(2) the final reports at bench/results/viewpoints/default/seed<S>/ become s59's: "
               f"eval_{policy}.json as eval_vags.json, and eval_{ABLATION}.json.")
+    sweep(top)
+
+
+def sweep(top):
+    """s59's threshold sweep as a Markdown table, and its plot (fig6.png beside this file)."""
+    path = os.path.join(top, "s59", "sweep", "eval_vags_r20_sweep.json")
+    if not os.path.exists(path) and not os.path.exists(path + ".gz"):
+        print("\nno sweep")
+        return
+    with (open(path) if os.path.exists(path) else gzip.open(path + ".gz", "rt")) as f:
+        rows = json.load(f)["rows"]
+    print("\n## s59's Fig. 6 sweep (seed 11, 20 rounds a group)\n")
+    print("| threshold (rate gate's move value) | success % | clearing % | motion number | moves % | picks/h |")
+    print("|---:|---:|---:|---:|---:|---:|")
+    for r in sorted(rows, key=lambda r: r["threshold"]):
+        o = r["overall"]
+        print(f"| {r['threshold']:+.2f} | {100 * o['grasp_success_rate']:.1f} | {100 * o['clearing_rate']:.1f} | "
+              f"{o['motion_number']:.2f} | {100 * o['viewpoint_rate']:.1f} | {o['picks_per_hour']:.0f} |")
+    from vags_jax.benchmark import reports
+
+    reports.plot_sweep(rows, os.path.join(HERE, "fig6.png"), title="s59 (the gpu preset): grasp success vs threshold")
+    print("\ndrew fig6.png")
 
 
 def verdict(judged) -> bool:
