@@ -35,11 +35,14 @@ sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
 def random_run(cfg, directory: str) -> str:
-    """A run directory with stage 3's networks drawn at random (GDNet, VANet, success net)."""
+    """A run directory with stage 3's networks drawn at random (GDNet, VANet, success net), and
+    under the "rate" gate a gate table of one bin that moves (its values do not change the time
+    a decision takes; a trained run's comes from ``stages.gate_measure``)."""
     import jax
     import numpy as np
 
     from vags_jax.nets import init_qnet, make_qnet
+    from vags_jax.policies import rate_gate
     from vags_jax.stages import checkpoint, rundir
 
     H = cfg.workspace.heightmap_px
@@ -48,7 +51,14 @@ def random_run(cfg, directory: str) -> str:
     checkpoint.save_config(directory, cfg)
     checkpoint.save(rundir.networks_dir(directory, "stage3"), 1, {
         "gdnet": gd, "vanet": va, "success": gd, "threshold": np.float32(0.0),
-        "calibration": np.zeros(2, np.float32)})
+        "calibration": np.zeros(3, np.float32)})
+    if cfg.vags.gate == "rate":
+        source = rundir.networks_source("stage3", 1)
+        one_bin = rate_gate.GateTable(edges=(), states=(1,), direct=(0.5,), moved=(0.6,), extra_seconds=(0.5,),
+                                      rate=0.1, move_value=(0.05,))
+        rate_gate.save(directory, one_bin, {"networks": source, "gdnet": source, "close_gdnet": source,
+                                            "estimate": cfg.vags.gate_estimate, "close_score": cfg.vags.close_score,
+                                            "direct_score": cfg.vags.direct_score})
     return directory
 
 
@@ -124,11 +134,16 @@ def main(argv=None) -> int:
         p.error("give --run RUN or --config PRESET")
     if args.repeats < 1:
         p.error("--repeats must be >= 1")
+    from vags_jax import config as C
+
+    try:
+        overrides = C.parse_overrides(args.set)
+    except ValueError as e:
+        p.error(f"--set: {e}")
 
     import jax
     import numpy as np
 
-    from vags_jax import config as C
     from vags_jax.predict import FramePolicy, check_frame
     from vags_jax.stages import checkpoint
 
@@ -136,15 +151,15 @@ def main(argv=None) -> int:
     cfg = checkpoint.load_config(run)
     frame, frame_at = bench_frame(cfg, args.width, args.height, args.objects, args.seed)
     t = time.perf_counter()
-    overrides = C.parse_overrides(args.set)
-    policy = FramePolicy(run, overrides or None)
+    policy = FramePolicy(run, overrides)
     load_s = time.perf_counter() - t
     t = time.perf_counter()
     first = policy.decide(frame)
     first_ms = 1000 * (time.perf_counter() - t)
     report = {"run": run, "networks": policy.source, "device": str(jax.devices()[0]), "frame": [args.width, args.height],
               "trunk": policy.cfg.net.trunk, "dtype": policy.cfg.net.dtype, "heightmap_px": cfg.workspace.heightmap_px,
-              "gate": cfg.vags.gate, "overrides": args.set, "frame_renderer": frame_renderer(cfg), "load_s": round(load_s, 2), "first_decision_ms": round(first_ms, 1),
+              "gate": policy.cfg.vags.gate, "overrides": args.set, "frame_renderer": frame_renderer(cfg),
+              "load_s": round(load_s, 2), "first_decision_ms": round(first_ms, 1),
               "decision": timed(lambda: policy.decide(frame), args.repeats),
               "checks_only": timed(lambda: check_frame(frame, policy.cfg.workspace), args.repeats)}
     if args.close:
