@@ -191,10 +191,11 @@ def test_bins_whose_choice_is_within_the_noise_are_named():
     # the high bin grasps directly (2 of 4): 8 + 4 motions for 6 objects.  Bin 1 does not move,
     # so there is no line for vags.gate_min_z.
     assert "predicted on these states: 2.000 motions per grasped object, 75.0 % success, moving in bins [0]" in text
-    assert "gate_min_z" not in text
+    assert "gate_min_z" not in text and rate_gate.close_moving_bins(t) == []
     # Bin 1 moving by a hair (+0.1, error 0.408; its moves grasp 2 of 4): 16 motions for 6 objects, and
     # the line with gate_min_z=2 drops it.
     hair = dataclasses.replace(t, move_value=(1.0, 0.1))
+    assert rate_gate.close_moving_bins(hair) == [1]
     text = rate_gate.describe(hair)
     assert "predicted on these states: 2.667 motions per grasped object, 75.0 % success, moving in bins [0, 1]" in text
     assert ("with --set vags.gate_min_z=2 (grasp directly in the moving bins marked *): 2.000 motions per grasped "

@@ -143,6 +143,12 @@ def close_bins(table: GateTable, z: float = 2.0) -> list:
     return [int(k) for k in np.flatnonzero(v < z * se)]
 
 
+def close_moving_bins(table: GateTable, z: float = 2.0) -> list:
+    """The bins of ``close_bins`` the table moves in (move value > 0): those ``gate_min_z`` = z
+    turns to direct grasps."""
+    return [k for k in close_bins(table, z) if table.move_value[k] > 0]
+
+
 class NoStandardErrors(ValueError):
     """A table without its bins' standard errors (measured before they were recorded), asked for
     ``significant`` moves."""
@@ -161,8 +167,8 @@ def significant(table: GateTable, min_z: float) -> GateTable:
                                "recorded), so vags.gate_min_z cannot tell which moves are within its noise: measure "
                                "it again with python -m vags_jax.stages.gate_measure --run RUN, or drop "
                                "vags.gate_min_z")
-    close = set(close_bins(table, min_z))
-    return dataclasses.replace(table, move_value=tuple(-float(v) if k in close and v > 0 else float(v)
+    drop = set(close_moving_bins(table, min_z))
+    return dataclasses.replace(table, move_value=tuple(-float(v) if k in drop else float(v)
                                                        for k, v in enumerate(table.move_value)))
 
 
@@ -452,7 +458,7 @@ def describe(table: GateTable) -> str:
                       "measurement could choose them the other way"]
     lines += ["", "predicted on these states: " + _prediction(table)
               + " (the benchmark's motion number has run 0.01-0.10 above a table's)"]
-    if any(table.move_value[k] > 0 for k in close):
+    if close_moving_bins(table):
         lines.append("with --set vags.gate_min_z=2 (grasp directly in the moving bins marked *): "
                      + _prediction(significant(table, 2.0)))
     return "\n".join(lines)

@@ -44,7 +44,7 @@ for N in ${SEEDS:-59 60 61}; do
 import sys
 from vags_jax.policies import rate_gate
 t = rate_gate.from_dict(rate_gate.read(sys.argv[1]))
-print(" ".join(str(k) for k in rate_gate.close_bins(t) if t.move_value[k] > 0))
+print(" ".join(str(k) for k in rate_gate.close_moving_bins(t)))
 PY
   E="--seeds 11,12,13 --cache-dir $C"
   ev vags_s$N python eval.py --run $R $E --out "$O/seed{seed}/eval_vags.json" &

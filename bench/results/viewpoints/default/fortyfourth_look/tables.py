@@ -38,7 +38,7 @@ def main(top):
             continue
         table = rate_gate.from_dict(rate_gate.read(run))
         moving = [k for k, v in enumerate(table.move_value) if v > 0]
-        close = [k for k in rate_gate.close_bins(table) if table.move_value[k] > 0]
+        close = rate_gate.close_moving_bins(table)
         print(f"## {os.path.basename(run)}: the gate table\n")
         print(rate_gate.describe(table))
         print(f"\nmoving bins {moving}; moving bins within two standard errors of 0: {close}\n", flush=True)
