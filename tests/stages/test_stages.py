@@ -696,8 +696,8 @@ def test_the_gate_measure_with_success_planned_direct_grasps_also_grasps_at_gdne
     """``--direct-score success``: the table's direct grasp is the success net's half-turn-mean
     argmax, recorded in its meta, and its states also hold GDNet's direct grasp from the same
     state ("gdnet" branch).  From the same first piles, that branch is the "q" table's direct
-    grasp, and the planned grasp's half-turn mean (``p_symmetric``) is never below GDNet's (and
-    above it somewhere: the barely trained nets' argmaxes differ)."""
+    grasp, and the planned grasp's half-turn mean (``p_symmetric``) is never below GDNet's; the two
+    planners choose other grasps somewhere."""
     kw = dict(steps=2, seed=0, log=lambda m: None, programs=programs, gdnet="stage3")
     _, meta_q, q = gate_measure.measure(runs[0], **kw)
     _, meta_s, s = gate_measure.measure(runs[0], direct_score="success", **kw)
@@ -708,7 +708,10 @@ def test_the_gate_measure_with_success_planned_direct_grasps_also_grasps_at_gdne
     for k in ("success", "lost", "seconds"):
         np.testing.assert_array_equal(first_s[f"gdnet_{k}"], first_q[f"direct_{k}"], err_msg=k)
     assert (first_s["p_symmetric"] >= first_q["p_symmetric"] - 1e-6).all()
-    assert (first_s["p_symmetric"] > first_q["p_symmetric"] + 1e-6).any()  # the planners chose other grasps
+    # The barely trained nets' argmaxes differ somewhere (which states depends on the CPU's rounding):
+    # a higher half-turn mean on a first pile, or another grasp (another time) on any state of the table.
+    assert ((first_s["p_symmetric"] > first_q["p_symmetric"] + 1e-6).any()
+            or (s["direct_seconds"] != s["gdnet_seconds"]).any())
     assert s["gdnet_success"].shape == s["direct_success"].shape == s["p_direct"].shape
 
 
