@@ -10,39 +10,25 @@ keep between sessions.
 import gc
 import logging
 import os
-import subprocess
-import sys
 import tempfile
 
-# Two settings of XLA's CPU compiler, for the suite's processes only:
-# * its older (LLVM IR) fusion emitters instead of the MLIR fusion emitters it uses by default:
-#   the suite's programs compile in about 30 % less CPU time and run as fast (2026-11-27, 2 cores,
-#   jaxlib 0.10.2: the tiny stage-1 reset 25.9 -> 18.6 s, its chunk of 2 iterations 42.2 -> 30.3 s);
-# * LLVM's optimization level 1 instead of 2 (--xla_backend_optimization_level): the whole suite
-#   took 17 % less CPU time (2026-11-29, 2 cores: user 1,138 against 1,370 s), compiling being
-#   most of it (bench/RESULTS.md, "Suite time").
-# Results can differ from the defaults' in the last bits, so the suite's bit-for-bit checks
-# compare runs under these settings.  Set here, before JAX starts its backend, so that the xdist
-# workers and the train.py / eval.py subprocesses inherit them; a flag that a jaxlib no longer
-# knows (XLA aborts on an unknown flag) is left out, and the suite runs with its default.
-_SUITE_FLAGS = ("--xla_cpu_use_fusion_emitters=false", "--xla_backend_optimization_level=1")
+# The two settings of XLA's CPU compiler that the commands add on a CPU (``vags_jax.cpu_compile``:
+# LLVM IR fusion emitters, about 30 % less compiling; LLVM level 1, the suite 17 % less CPU time,
+# bench/RESULTS.md, "Suite time"), set for the whole suite whatever plugins are installed.  Set
+# here, before JAX starts its backend, so that the xdist workers and the train.py / eval.py
+# subprocesses inherit them (the suite's bit-for-bit checks compare runs under these settings); a
+# flag that this jaxlib does not know (XLA aborts on it) is left out.
+from vags_jax import cpu_compile  # noqa: E402  (imports JAX, whose backend reads XLA_FLAGS later)
+
+_SUITE_FLAGS = (cpu_compile.FUSION, cpu_compile.OPT_LEVEL)
 _PROBED = "VAGS_JAX_TEST_XLA_FLAGS_PROBED"
-
-
-def _xla_accepts(flags: str) -> bool:
-    return subprocess.run([sys.executable, "-c", "import jax; jax.devices('cpu')"],
-                          env={**os.environ, "XLA_FLAGS": flags}, capture_output=True).returncode == 0
-
 
 if not os.environ.get(_PROBED):
     _new = [f for f in _SUITE_FLAGS if f.split("=")[0] not in os.environ.get("XLA_FLAGS", "")]  # not the caller's
     _base = os.environ.get("XLA_FLAGS", "")
-    if _new and _xla_accepts(" ".join([_base] + _new).strip()):  # one start of JAX when all are known
-        os.environ["XLA_FLAGS"] = " ".join([_base] + _new).strip()
-    else:
-        for _flag in _new:
-            if _xla_accepts((os.environ.get("XLA_FLAGS", "") + " " + _flag).strip()):
-                os.environ["XLA_FLAGS"] = (os.environ.get("XLA_FLAGS", "") + " " + _flag).strip()
+    _ok = cpu_compile.accepted(_new, _base, None) if _new else []  # tried in a child process
+    if _ok:
+        os.environ["XLA_FLAGS"] = " ".join([_base] + _ok).strip()
     os.environ[_PROBED] = "1"
 
 # Python's garbage collector ran 7 % of the CPU time of compiling the stage-1 reset (perf): tracing

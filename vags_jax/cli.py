@@ -16,7 +16,7 @@ from typing import Optional
 
 from absl import logging as absl_logging  # comes with orbax-checkpoint
 
-from vags_jax import compile_cache
+from vags_jax import compile_cache, cpu_compile
 
 
 class ArgumentParser(argparse.ArgumentParser):
@@ -160,10 +160,12 @@ def add_cache_dir(p: argparse.ArgumentParser) -> None:
 
 
 def use_compile_cache(prog: str, flag: Optional[str]) -> Optional[int]:
-    """Turns on the compile cache (``compile_cache.enable``) -> None, or exit code 2 after one
-    line saying what to fix when the directory is unusable."""
+    """Turns on the compile cache (``compile_cache.enable``) and XLA's faster CPU compiles
+    (``cpu_compile.add_flags``) -> None, or exit code 2 after one line saying what to fix when
+    the directory is unusable."""
     try:
         compile_cache.enable(flag)
     except ValueError as e:
         return fail(prog, e)
+    cpu_compile.add_flags(compile_cache.resolve(flag))  # before JAX starts its backend
     return None
